@@ -1,0 +1,5 @@
+"""dyncatch."""
+
+from dyncatch.gym.registration import register_envs
+
+register_envs()

@@ -1,0 +1,1 @@
+"""Evaluation: run policies for whole episodes and summarise them."""

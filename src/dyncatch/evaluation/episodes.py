@@ -1,0 +1,57 @@
+"""Run a policy for exactly one episode in each of N parallel environments.
+
+No auto-reset: every environment plays one episode to its end and then freezes its
+statistics, so the N outcomes are independent and unbiased by episode length.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from functools import partial
+
+import jax
+import jax.numpy as jnp
+
+from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.env import observe, reset, step
+
+
+@partial(jax.jit, static_argnames=("policy", "num_episodes", "num_steps"))
+def _run(policy: Callable, key: jax.Array, cfg: WorldCfg, num_episodes: int, num_steps: int):
+    k_reset, k_act = jax.random.split(key)
+    state = jax.vmap(reset, in_axes=(0, None))(jax.random.split(k_reset, num_episodes), cfg)
+    obs = jax.vmap(observe, in_axes=(0, None))(state, cfg)
+    vstep = jax.vmap(step, in_axes=(0, 0, None))
+    vpolicy = jax.vmap(policy)
+
+    def body(carry, t):
+        state, obs, done, success, steps, ret = carry
+        keys = jax.random.split(jax.random.fold_in(k_act, t), num_episodes)
+        action = vpolicy(obs, keys)
+        state, obs, reward, now_done, info = vstep(state, action, cfg)
+        live = ~done
+        success = success | (live & info["success"])
+        steps = steps + live.astype(jnp.int32)
+        ret = ret + jnp.where(live, reward, 0.0)
+        return (state, obs, done | now_done, success, steps, ret), None
+
+    zeros_b = jnp.zeros(num_episodes, bool)
+    init = (state, obs, zeros_b, zeros_b, jnp.zeros(num_episodes, jnp.int32),
+            jnp.zeros(num_episodes))
+    (_, _, _, success, steps, ret), _ = jax.lax.scan(body, init, jnp.arange(num_steps))
+    return success, steps, ret
+
+
+def run_episodes(
+    policy: Callable, key: jax.Array, cfg: WorldCfg, num_episodes: int
+) -> dict[str, jax.Array]:
+    """Play ``num_episodes`` episodes of ``policy(obs, key) -> action``.
+
+    Returns ``success`` (N,) bool, ``catch_time_s`` (N,) (the episode limit on failure, as
+    in the paper) and ``return`` (N,).
+    """
+    num_steps = int(cfg.episode.max_steps)
+    success, steps, ret = _run(policy, key, cfg, num_episodes, num_steps)
+    dt = cfg.episode.dt_s
+    catch_time = jnp.where(success, steps * dt, num_steps * dt)
+    return {"success": success, "catch_time_s": catch_time, "return": ret}

@@ -1,0 +1,1 @@
+"""Policies: pure functions ``(obs, key) -> action`` for one environment (vmap for a batch)."""

@@ -1,0 +1,74 @@
+"""Reduced-order legged base: a velocity-tracking gait controller seen from above.
+
+The gait controller is modelled by what matters to the high-level policy: commanded
+(vx, vy, yaw rate) are clipped to the base's limits and tracked with a first-order lag
+under acceleration limits, plus small gait-induced velocity noise. Walls stop the base.
+Velocities are in the base frame: x forward, y to the left.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+from dyncatch.sim.config import ArenaCfg, BaseCfg
+from dyncatch.sim.geometry import rotate, wrap_angle
+from dyncatch.sim.state import RobotState
+
+
+def command_low(cfg: BaseCfg) -> jax.Array:
+    """Lower command bounds (vx, vy, yaw rate), (3,)."""
+    return jnp.stack(
+        [-cfg.max_backward_mps, -cfg.max_lateral_mps, -cfg.max_yaw_rate_rps]
+    ).astype(jnp.float32)
+
+
+def command_high(cfg: BaseCfg) -> jax.Array:
+    """Upper command bounds (vx, vy, yaw rate), (3,)."""
+    return jnp.stack([cfg.max_forward_mps, cfg.max_lateral_mps, cfg.max_yaw_rate_rps]).astype(
+        jnp.float32
+    )
+
+
+def clip_command(command: jax.Array, cfg: BaseCfg) -> jax.Array:
+    """Clip a (vx, vy, yaw rate) command, (..., 3), to the base's limits."""
+    return jnp.clip(command, command_low(cfg), command_high(cfg))
+
+
+def add_gait_noise(robot: RobotState, noise: jax.Array, cfg: BaseCfg) -> RobotState:
+    """Perturb the base velocity by standard-normal ``noise`` (3,) scaled by the config.
+
+    The result stays inside the command limits: the gait cannot run faster than its top speed.
+    """
+    vel = jnp.concatenate([robot.vel_body_mps, robot.yaw_rate_rps[None]])
+    scale = jnp.stack([cfg.gait_noise_mps, cfg.gait_noise_mps, cfg.gait_noise_yaw_rps])
+    vel = clip_command(vel + scale * noise, cfg)
+    return robot.replace(vel_body_mps=vel[:2], yaw_rate_rps=vel[2])
+
+
+def base_substep(
+    robot: RobotState, command: jax.Array, cfg: BaseCfg, arena: ArenaCfg, dt_s: float
+) -> RobotState:
+    """Advance the base by one physics sub-step under a clipped ``command`` (3,)."""
+    lin_step = jnp.clip(
+        (command[:2] - robot.vel_body_mps) * (dt_s / cfg.lag_s),
+        -cfg.max_lin_accel_mps2 * dt_s,
+        cfg.max_lin_accel_mps2 * dt_s,
+    )
+    yaw_step = jnp.clip(
+        (command[2] - robot.yaw_rate_rps) * (dt_s / cfg.lag_s),
+        -cfg.max_yaw_accel_rps2 * dt_s,
+        cfg.max_yaw_accel_rps2 * dt_s,
+    )
+    vel_body = robot.vel_body_mps + lin_step
+    yaw_rate = robot.yaw_rate_rps + yaw_step
+
+    xy = robot.xy_m + rotate(vel_body, robot.yaw_rad) * dt_s
+    # A wall stops the body, not the gait: the tracked velocity (what the legs do, and what
+    # the policy observes) stays within the command limits while the base slides along it.
+    return robot.replace(
+        xy_m=jnp.clip(xy, cfg.radius_m, arena.size_m - cfg.radius_m),
+        yaw_rad=wrap_angle(robot.yaw_rad + yaw_rate * dt_s),
+        vel_body_mps=vel_body,
+        yaw_rate_rps=yaw_rate,
+    )

@@ -1,0 +1,214 @@
+"""World configuration: every model constant of the catch world, with units.
+
+Each ``*Cfg`` is a frozen dataclass and a JAX pytree at once: numeric fields are leaves (so a
+jitted step takes them as arguments and can be ``vmap``-ed over them), fields marked
+``static`` shape the computation and are compile-time constants. The defaults and their
+sources are listed in ``docs/model.md``.
+"""
+
+from __future__ import annotations
+
+import math
+
+from flax import struct
+
+
+def static(default):
+    """A config field that is a compile-time constant (changing it recompiles)."""
+    return struct.field(pytree_node=False, default=default)
+
+
+@struct.dataclass
+class ArenaCfg:
+    size_m: float = 16.0
+    """Side of the square arena; its lower-left corner is the origin."""
+
+
+@struct.dataclass
+class BaseCfg:
+    """Reduced-order quadruped base under a velocity-tracking gait controller (Aliengo-like)."""
+
+    max_forward_mps: float = 2.0
+    """Largest forward command."""
+    max_backward_mps: float = 1.0
+    """Largest backward command (magnitude)."""
+    max_lateral_mps: float = 1.0
+    """Largest sideways command (magnitude)."""
+    max_yaw_rate_rps: float = 2.0
+    """Largest yaw-rate command (magnitude)."""
+    lag_s: float = 0.1
+    """Time constant of the first-order tracking of commanded velocities."""
+    max_lin_accel_mps2: float = 4.0
+    """Largest linear acceleration of the base, per axis."""
+    max_yaw_accel_rps2: float = 10.0
+    """Largest yaw acceleration of the base."""
+    gait_noise_mps: float = 0.05
+    """Std of the gait-induced linear velocity noise, per control step."""
+    gait_noise_yaw_rps: float = 0.05
+    """Std of the gait-induced yaw-rate noise, per control step."""
+    length_m: float = 0.65
+    """Footprint length (Aliengo trunk and legs)."""
+    width_m: float = 0.30
+    """Footprint width."""
+    height_m: float = 0.40
+    """Height of the trunk top, where the arm is mounted."""
+
+    @property
+    def radius_m(self) -> float:
+        """Radius of the circle around the footprint, used against walls."""
+        return 0.5 * (self.length_m**2 + self.width_m**2) ** 0.5
+
+
+@struct.dataclass
+class ArmCfg:
+    """A 6-DOF arm with Z1-like geometry, driven by damped-least-squares IK.
+
+    Joints: yaw, pitch, pitch, pitch, yaw, roll. Lengths follow the Unitree Z1 datasheet
+    rounded to the centimetre.
+    """
+
+    mount_x_m: float = 0.15
+    """Mount point ahead of the base centre."""
+    shoulder_height_m: float = 0.10
+    """Joint 2 above the mount (joint-1 column)."""
+    upper_arm_m: float = 0.35
+    """Joint 2 to joint 3."""
+    forearm_m: float = 0.22
+    """Joint 3 to joint 4."""
+    wrist_m: float = 0.07
+    """Joint 4 to joint 5."""
+    wrist2_m: float = 0.05
+    """Joint 5 to joint 6."""
+    gripper_m: float = 0.13
+    """Joint 6 to the gripper point."""
+    joint_min_rad: tuple[float, ...] = (-2.6, -0.3, -2.9, -1.4, -1.5, -2.8)
+    """Lower joint limits."""
+    joint_max_rad: tuple[float, ...] = (2.6, 2.9, 0.3, 1.4, 1.5, 2.8)
+    """Upper joint limits."""
+    max_joint_vel_rps: float = 3.14
+    """Joint-velocity limit (Z1: 180 deg/s)."""
+    stow_rad: tuple[float, ...] = (0.0, 0.6, -2.2, 1.0, 0.0, 0.0)
+    """Folded pose held while the target is far."""
+    activation_distance_m: float = 1.0
+    """The arm reaches once the target is this close to the base centre (d_arm,act)."""
+    ik_damping: float = 0.05
+    """Damping lambda of the DLS solve (metres)."""
+    ik_gain: float = 1.0
+    """Fraction of the gripper error corrected per IK step (before velocity limits)."""
+    catch_offset_m: float = 0.10
+    """The catch point sits this far below the gripper."""
+    catch_radius_m: float = 0.05
+    """Success: target centre within this distance of the catch point (d_suc)."""
+
+
+@struct.dataclass
+class TargetCfg:
+    """The planar target body and its behaviour parameters."""
+
+    behavior: str = static("reactive")
+    """Behaviour, a key of ``dyncatch.sim.behaviors.BEHAVIORS``."""
+    speed_min_mps: float = 0.8
+    """Lower end of the per-episode speed cap."""
+    speed_max_mps: float = 1.8
+    """Upper end of the per-episode speed cap."""
+    max_turn_rate_rps: float = 10.0
+    """Largest heading rate of the target (a quick animal turns about 2 turns per second)."""
+    radius_m: float = 0.10
+    """Body radius, kept off walls."""
+    height_m: float = 0.15
+    """Height of the target centre above the ground."""
+    circle_radius_m: float = 5.0
+    """Radius of the circle path (paper: 5 m), centred in the arena."""
+    evade_radius_m: float = 2.5
+    """r_ev of eq. 12: closer than this, the target dodges sideways."""
+    evade_angle_rad: float = math.radians(60.0)
+    """alpha of eq. 12: the dodge angle added to the flee direction."""
+    gamma_max_rad: float = math.radians(22.5)
+    """gamma ~ U(-gamma_max, gamma_max) of eq. 12, drawn every control step."""
+    random_turn_max_rad: float = math.radians(90.0)
+    """random_reactive: heading offsets are drawn from U(-max, max)."""
+    random_turn_mean_interval_s: float = 1.0
+    """random_reactive: mean time between offset changes (exponential intervals)."""
+    random_turn_hold_s: float = 0.5
+    """random_reactive: how long an offset lasts once drawn."""
+
+
+@struct.dataclass
+class SensorCfg:
+    """The onboard camera: sample-and-hold target positions at a low rate, in a cone."""
+
+    rate_hz: float = 2.0
+    """Visual observation rate f_vis."""
+    fov_rad: float = math.radians(120.0)
+    """Full horizontal field of view around the base heading (theta_FoV)."""
+    range_m: float = 10.0
+    """Farthest distance at which the target is detected."""
+    latency_s: float = 0.0
+    """Delay between capture and availability; must be shorter than one camera period."""
+    noise_m: float = 0.0
+    """Std of the position noise added to each observation."""
+
+
+@struct.dataclass
+class RewardCfg:
+    """Weights of eq. 9."""
+
+    pursuit: float = 1.0
+    """w1, on the change of robot-target distance (eq. 6)."""
+    visibility: float = 0.2
+    """w2, on the target being inside the field of view (eq. 7)."""
+    success: float = 5.0
+    """w3, on the catch (eq. 8)."""
+
+
+@struct.dataclass
+class EpisodeCfg:
+    control_hz: int = static(50)
+    """Rate of the high-level commands."""
+    physics_substeps: int = static(4)
+    """Base and arm sub-steps per control step (4 x 50 Hz = 200 Hz)."""
+    duration_s: float = 20.0
+    """Episode limit (open plane in the paper)."""
+    init_distance_min_m: float = 2.0
+    """Closest initial robot-target distance."""
+    init_distance_max_m: float = 6.0
+    """Farthest initial robot-target distance."""
+
+    @property
+    def dt_s(self) -> float:
+        return 1.0 / self.control_hz
+
+    @property
+    def max_steps(self):
+        return jnp_round(self.duration_s * self.control_hz)
+
+
+def jnp_round(x):
+    """Round a Python or JAX scalar to the nearest integer (int32 when traced)."""
+    if isinstance(x, int | float):
+        return int(round(x))
+    import jax.numpy as jnp
+
+    return jnp.round(x).astype(jnp.int32)
+
+
+@struct.dataclass
+class WorldCfg:
+    """Everything the simulator needs; pass it to ``reset`` and ``step``."""
+
+    arena: ArenaCfg = ArenaCfg()
+    base: BaseCfg = BaseCfg()
+    arm: ArmCfg = ArmCfg()
+    target: TargetCfg = TargetCfg()
+    sensor: SensorCfg = SensorCfg()
+    reward: RewardCfg = RewardCfg()
+    episode: EpisodeCfg = EpisodeCfg()
+
+    def with_speed(self, speed_mps: float) -> WorldCfg:
+        """The same world with the target speed fixed (as in the evaluation tables)."""
+        return self.replace(
+            target=self.target.replace(speed_min_mps=speed_mps, speed_max_mps=speed_mps)
+        )
+
+    def with_behavior(self, behavior: str) -> WorldCfg:
+        return self.replace(target=self.target.replace(behavior=behavior))

@@ -1,0 +1,177 @@
+"""The catch world: pure ``reset`` and ``step`` of one environment.
+
+``reset(key, cfg) -> state`` and ``step(state, action, cfg) -> (state, obs, reward, done,
+info)`` are pure, ``jit``-able and ``vmap``-able; batching and auto-reset live in
+``dyncatch.sim.vec``. ``action`` is the base command (vx, vy, yaw rate) in m/s and rad/s,
+clipped to the base's limits.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+from dyncatch.sim.arm import arm_substep, gripper_in_base
+from dyncatch.sim.base import add_gait_noise, base_substep, clip_command
+from dyncatch.sim.behaviors import get_behavior
+from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.geometry import bearing, rotate, world_to_body
+from dyncatch.sim.reward import reward_terms, total_reward
+from dyncatch.sim.sensing import initial_sensor, sensor_tick
+from dyncatch.sim.state import EnvState, Obs, RobotState, TargetState
+from dyncatch.sim.target import move, steer
+
+_ROBOT_PLACEMENT_TRIES = 8
+
+
+def gripper_world(robot: RobotState, gripper_base: jax.Array) -> jax.Array:
+    """Gripper point in the world, (3,), from its base-frame position."""
+    return jnp.concatenate([robot.xy_m + rotate(gripper_base[:2], robot.yaw_rad),
+                            gripper_base[2:]])
+
+
+def target_xyz(target: TargetState, cfg: WorldCfg) -> jax.Array:
+    return jnp.concatenate([target.xy_m, jnp.full((1,), cfg.target.height_m)])
+
+
+def catch_error_m(gripper_xyz_m: jax.Array, target: TargetState, cfg: WorldCfg) -> jax.Array:
+    """Distance from the target centre to the catch point 0.10 m below the gripper."""
+    catch_point = gripper_xyz_m - jnp.array([0.0, 0.0, cfg.arm.catch_offset_m])
+    return jnp.linalg.norm(target_xyz(target, cfg) - catch_point)
+
+
+def _place_robot(key: jax.Array, target_xy: jax.Array, cfg: WorldCfg) -> jax.Array:
+    """A point at a random distance from the target inside the arena (a few tries, then clip)."""
+    k_a, k_d = jax.random.split(key)
+    angles = jax.random.uniform(k_a, (_ROBOT_PLACEMENT_TRIES,), minval=-jnp.pi, maxval=jnp.pi)
+    dists = jax.random.uniform(
+        k_d,
+        (_ROBOT_PLACEMENT_TRIES,),
+        minval=cfg.episode.init_distance_min_m,
+        maxval=cfg.episode.init_distance_max_m,
+    )
+    cands = target_xy + dists[:, None] * jnp.stack([jnp.cos(angles), jnp.sin(angles)], -1)
+    lo, hi = cfg.base.radius_m, cfg.arena.size_m - cfg.base.radius_m
+    ok = jnp.all((cands >= lo) & (cands <= hi), axis=-1)
+    return jnp.clip(cands[jnp.argmax(ok)], lo, hi)
+
+
+def reset(key: jax.Array, cfg: WorldCfg) -> EnvState:
+    """A new episode: target placed by its behaviour, robot 2-6 m away facing anywhere."""
+    behavior = get_behavior(cfg.target.behavior)
+    k_target, k_speed, k_place, k_yaw, k_sense, k_next = jax.random.split(key, 6)
+    t_xy, t_heading, memory = behavior.reset(k_target, cfg)
+    speed = jax.random.uniform(
+        k_speed, (), minval=cfg.target.speed_min_mps, maxval=cfg.target.speed_max_mps
+    )
+    target = TargetState(
+        xy_m=t_xy, heading_rad=t_heading, speed_mps=speed, speed_cap_mps=speed, memory=memory
+    )
+    q = jnp.asarray(cfg.arm.stow_rad, jnp.float32)
+    robot = RobotState(
+        xy_m=_place_robot(k_place, t_xy, cfg),
+        yaw_rad=jax.random.uniform(k_yaw, (), minval=-jnp.pi, maxval=jnp.pi),
+        vel_body_mps=jnp.zeros(2),
+        yaw_rate_rps=jnp.zeros(()),
+        arm_q_rad=q,
+        gripper_xyz_m=jnp.zeros(3),
+    )
+    robot = robot.replace(gripper_xyz_m=gripper_world(robot, gripper_in_base(q, cfg.arm, cfg.base)))
+    step0 = jnp.zeros((), jnp.int32)
+    # The reset frame counts as a tick; start the clock one step early so its age reads 0.
+    sensor = initial_sensor(robot).replace(time_since_seen_s=jnp.full((), -cfg.episode.dt_s))
+    sensor = sensor_tick(sensor, robot, target, step0, jax.random.normal(k_sense, (2,)), cfg)
+    return EnvState(
+        robot=robot,
+        target=target,
+        sensor=sensor,
+        step=step0,
+        key=k_next,
+        success=jnp.zeros((), bool),
+        distance_m=jnp.linalg.norm(t_xy - robot.xy_m),
+    )
+
+
+def _physics_substep(robot, target, command, best_err, cfg: WorldCfg, dt_s, reflect):
+    gripper_base = gripper_in_base(robot.arm_q_rad, cfg.arm, cfg.base)
+    best_err = jnp.minimum(best_err, catch_error_m(gripper_world(robot, gripper_base), target, cfg))
+    rel = target.xy_m - robot.xy_m
+    goal_base = jnp.concatenate([
+        world_to_body(rel, robot.yaw_rad),
+        jnp.full((1,), cfg.target.height_m + cfg.arm.catch_offset_m),
+    ])
+    active = jnp.sum(rel * rel) <= cfg.arm.activation_distance_m**2
+    q = arm_substep(robot.arm_q_rad, gripper_base, goal_base, active, cfg.arm, dt_s)
+    robot = base_substep(robot.replace(arm_q_rad=q), command, cfg.base, cfg.arena, dt_s)
+    target = move(target, cfg.target, cfg.arena, dt_s, reflect)
+    return robot, target, best_err
+
+
+def observe(state: EnvState, cfg: WorldCfg) -> Obs:
+    robot, sensor = state.robot, state.sensor
+    size = cfg.arena.size_m
+    x, y = robot.xy_m[0], robot.xy_m[1]
+    return Obs(
+        robot_xy_m=robot.xy_m,
+        robot_yaw_cos_sin=jnp.stack([jnp.cos(robot.yaw_rad), jnp.sin(robot.yaw_rad)]),
+        robot_vel_body_mps=robot.vel_body_mps,
+        robot_yaw_rate_rps=robot.yaw_rate_rps,
+        target_obs_xy_m=sensor.obs_xy_m,
+        target_obs_body_m=world_to_body(sensor.obs_xy_m - robot.xy_m, robot.yaw_rad),
+        time_since_seen_s=sensor.time_since_seen_s,
+        visible=sensor.visible.astype(jnp.float32),
+        wall_distance_m=jnp.stack([x, size - x, y, size - y]),
+    )
+
+
+def step(state: EnvState, action: jax.Array, cfg: WorldCfg):
+    """Advance one control step (1 / control_hz) under the base command ``action`` (3,).
+
+    Returns ``(state, obs, reward, done, info)``; ``info`` holds the reward terms as
+    ``reward/<name>``, ``success``, ``terminated``, ``truncated``, ``distance_m`` and
+    ``catch_error_m`` (the smallest catch-point error over the step's sub-steps).
+    """
+    behavior = get_behavior(cfg.target.behavior)
+    key, k_gait, k_behavior, k_sense = jax.random.split(state.key, 4)
+    dt_s = cfg.episode.dt_s
+    n_sub = cfg.episode.physics_substeps
+    command = clip_command(action, cfg.base)
+
+    robot = add_gait_noise(state.robot, jax.random.normal(k_gait, (3,)), cfg.base)
+    heading, memory = behavior.desired_heading(state.target, robot, cfg, k_behavior)
+    target = steer(state.target.replace(memory=memory), heading, cfg.target, dt_s)
+
+    # The catch is checked at every sub-step (200 Hz), before each arm update and at the end.
+    best_err = jnp.full((), jnp.inf)
+    for _ in range(n_sub):
+        robot, target, best_err = _physics_substep(
+            robot, target, command, best_err, cfg, dt_s / n_sub, behavior.reflects_off_walls
+        )
+    gripper = gripper_world(robot, gripper_in_base(robot.arm_q_rad, cfg.arm, cfg.base))
+    best_err = jnp.minimum(best_err, catch_error_m(gripper, target, cfg))
+    success = best_err <= cfg.arm.catch_radius_m
+    robot = robot.replace(gripper_xyz_m=gripper)
+
+    step_count = state.step + 1
+    sensor = sensor_tick(
+        state.sensor, robot, target, step_count, jax.random.normal(k_sense, (2,)), cfg
+    )
+    distance = jnp.linalg.norm(target.xy_m - robot.xy_m)
+    terms = reward_terms(
+        state.distance_m, distance, bearing(robot.xy_m, robot.yaw_rad, target.xy_m), success,
+        cfg.sensor,
+    )
+    new_state = EnvState(
+        robot=robot, target=target, sensor=sensor, step=step_count, key=key, success=success,
+        distance_m=distance,
+    )
+    truncated = (step_count >= cfg.episode.max_steps) & ~success
+    info = {f"reward/{name}": value for name, value in terms.items()}
+    info.update(
+        success=success,
+        terminated=success,
+        truncated=truncated,
+        distance_m=distance,
+        catch_error_m=best_err,
+    )
+    return new_state, observe(new_state, cfg), total_reward(terms, cfg.reward), success | truncated, info

@@ -1,0 +1,122 @@
+"""State and observation pytrees of one environment (add a leading axis for a batch)."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+from flax import struct
+
+
+@struct.dataclass
+class RobotState:
+    xy_m: jax.Array
+    """Base centre in the world, (2,)."""
+    yaw_rad: jax.Array
+    """Base heading, ()."""
+    vel_body_mps: jax.Array
+    """Base velocity (forward, left) in the base frame, (2,)."""
+    yaw_rate_rps: jax.Array
+    """()."""
+    arm_q_rad: jax.Array
+    """Arm joint angles, (6,)."""
+    gripper_xyz_m: jax.Array
+    """Gripper point in the world, (3,)."""
+
+
+@struct.dataclass
+class TargetState:
+    xy_m: jax.Array
+    """Target centre on the plane, (2,)."""
+    heading_rad: jax.Array
+    """Direction of motion, ()."""
+    speed_mps: jax.Array
+    """Current speed, ()."""
+    speed_cap_mps: jax.Array
+    """This episode's speed cap, drawn at reset, ()."""
+    memory: jax.Array
+    """Behaviour-owned scratch values, (4,); see each behaviour for their meaning."""
+
+    @property
+    def vel_mps(self) -> jax.Array:
+        return self.speed_mps * jnp.stack([jnp.cos(self.heading_rad), jnp.sin(self.heading_rad)])
+
+
+@struct.dataclass
+class SensorState:
+    """What the camera has delivered so far (sample-and-hold) and what it is about to."""
+
+    obs_xy_m: jax.Array
+    """Last delivered target position, (2,) (the robot's own position before any sighting)."""
+    prev_obs_xy_m: jax.Array
+    """The delivery before it, (2,)."""
+    robot_pose: jax.Array
+    """Robot (x, y, yaw) when obs_xy_m was captured, (3,)."""
+    prev_robot_pose: jax.Array
+    """Robot (x, y, yaw) when prev_obs_xy_m was captured, (3,)."""
+    visible: jax.Array
+    """The last camera frame delivered saw the target, () bool."""
+    consecutive: jax.Array
+    """The last two camera frames both saw the target, () bool."""
+    ever_seen: jax.Array
+    """() bool."""
+    time_since_seen_s: jax.Array
+    """Time since the capture of the last sighting (episode time if never seen), ()."""
+    pending_xy_m: jax.Array
+    """Captured, not yet delivered (latency), (2,)."""
+    pending_seen: jax.Array
+    """() bool."""
+    pending_robot_pose: jax.Array
+    """(3,)."""
+
+
+@struct.dataclass
+class EnvState:
+    robot: RobotState
+    target: TargetState
+    sensor: SensorState
+    step: jax.Array
+    """Control steps since reset, () int32."""
+    key: jax.Array
+    """This environment's PRNG key."""
+    success: jax.Array
+    """The catch happened on the last step, () bool."""
+    distance_m: jax.Array
+    """Planar robot-target distance after the last step (for eq. 6), ()."""
+
+
+@struct.dataclass
+class Obs:
+    """What a policy may see. ``flat`` is the network view, (OBS_DIM,)."""
+
+    robot_xy_m: jax.Array
+    robot_yaw_cos_sin: jax.Array
+    robot_vel_body_mps: jax.Array
+    robot_yaw_rate_rps: jax.Array
+    target_obs_xy_m: jax.Array
+    """Last observed target position in the world, (2,)."""
+    target_obs_body_m: jax.Array
+    """The same point in the current base frame, (2,)."""
+    time_since_seen_s: jax.Array
+    visible: jax.Array
+    """1.0 if the last camera frame saw the target."""
+    wall_distance_m: jax.Array
+    """Distance from the base centre to the walls (-x, +x, -y, +y), (4,): s_env."""
+
+    @property
+    def flat(self) -> jax.Array:
+        parts = [
+            self.robot_xy_m,
+            self.robot_yaw_cos_sin,
+            self.robot_vel_body_mps,
+            self.robot_yaw_rate_rps[..., None],
+            self.target_obs_xy_m,
+            self.target_obs_body_m,
+            self.time_since_seen_s[..., None],
+            self.visible[..., None],
+            self.wall_distance_m,
+        ]
+        return jnp.concatenate(parts, axis=-1)
+
+
+OBS_DIM = 17
+ACTION_DIM = 3

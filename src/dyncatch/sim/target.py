@@ -1,0 +1,37 @@
+"""The target's body: turn toward the behaviour's heading, move at the cap, meet the walls."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+from dyncatch.sim.config import ArenaCfg, TargetCfg
+from dyncatch.sim.geometry import wrap_angle
+from dyncatch.sim.state import TargetState
+
+
+def steer(target: TargetState, desired_heading_rad: jax.Array, cfg: TargetCfg, dt_s: float):
+    """Turn toward the desired heading by at most the turn-rate limit; run at the speed cap."""
+    max_turn = cfg.max_turn_rate_rps * dt_s
+    turn = jnp.clip(wrap_angle(desired_heading_rad - target.heading_rad), -max_turn, max_turn)
+    return target.replace(
+        heading_rad=wrap_angle(target.heading_rad + turn), speed_mps=target.speed_cap_mps
+    )
+
+
+def move(
+    target: TargetState, cfg: TargetCfg, arena: ArenaCfg, dt_s: float, reflect: bool
+) -> TargetState:
+    """Integrate one sub-step; walls either mirror the motion or stop the normal component."""
+    c, s = jnp.cos(target.heading_rad), jnp.sin(target.heading_rad)
+    xy = target.xy_m + target.speed_mps * dt_s * jnp.stack([c, s])
+    lo, hi = cfg.radius_m, arena.size_m - cfg.radius_m
+    if not reflect:
+        return target.replace(xy_m=jnp.clip(xy, lo, hi))
+    below, above = xy < lo, xy > hi
+    xy = jnp.where(below, 2 * lo - xy, jnp.where(above, 2 * hi - xy, xy))
+    xy = jnp.clip(xy, lo, hi)
+    flip = below | above
+    vx = jnp.where(flip[0], -jnp.abs(c) * jnp.sign(xy[0] - 0.5 * arena.size_m), c)
+    vy = jnp.where(flip[1], -jnp.abs(s) * jnp.sign(xy[1] - 0.5 * arena.size_m), s)
+    return target.replace(xy_m=xy, heading_rad=jnp.arctan2(vy, vx))

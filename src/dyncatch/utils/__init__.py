@@ -1,0 +1,1 @@
+"""Edge utilities: JAX set-up, files, logging."""

@@ -1,0 +1,50 @@
+"""Small rollout helpers shared by the simulator tests."""
+
+from __future__ import annotations
+
+from functools import partial
+
+import jax
+import jax.numpy as jnp
+
+from dyncatch.sim import env
+from dyncatch.sim.base import command_high, command_low
+from dyncatch.sim.config import WorldCfg
+
+
+@partial(jax.jit, static_argnames=("num_envs", "num_steps"))
+def random_rollout(key: jax.Array, cfg: WorldCfg, num_envs: int, num_steps: int):
+    """Random commands (held for 0.5 s, drawn 20 % beyond the limits to test clipping).
+
+    Returns per-step (T, B, ...) states and infos; no auto-reset, episodes may end early
+    (later steps of an ended episode keep running and are masked with ``alive``).
+    """
+    k_reset, k_act = jax.random.split(key)
+    state = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(k_reset, num_envs), cfg)
+    lo, hi = command_low(cfg.base) * 1.2, command_high(cfg.base) * 1.2
+    vstep = jax.vmap(env.step, in_axes=(0, 0, None))
+
+    def body(carry, t):
+        state, action, alive = carry
+        k = jax.random.fold_in(k_act, t)
+        fresh = jax.random.uniform(k, (num_envs, 3), minval=lo, maxval=hi)
+        action = jnp.where(t % 25 == 0, fresh, action)
+        state, _, reward, done, info = vstep(state, action, cfg)
+        out = (state, info, reward, alive)
+        return (state, action, alive & ~done), out
+
+    init = (state, jnp.zeros((num_envs, 3)), jnp.ones(num_envs, bool))
+    _, (states, infos, rewards, alive) = jax.lax.scan(body, init, jnp.arange(num_steps))
+    return states, infos, rewards, alive
+
+
+@partial(jax.jit, static_argnames=("num_steps",))
+def fixed_rollout(state, action: jax.Array, cfg: WorldCfg, num_steps: int):
+    """One environment under a constant command; returns the (T, ...) states and infos."""
+
+    def body(s, _):
+        s, obs, reward, done, info = env.step(s, action, cfg)
+        return s, (s, obs, info)
+
+    _, out = jax.lax.scan(body, state, None, length=num_steps)
+    return out
