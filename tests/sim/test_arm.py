@@ -16,16 +16,18 @@ def test_zero_pose_points_straight_ahead():
     # All links horizontal and forward: x = mount + sum of the lengths, z = shoulder height.
     p = arm.gripper_in_base(jnp.zeros(6), A, B)
     reach = A.upper_arm_m + A.forearm_m + A.wrist_m + A.wrist2_m + A.gripper_m
-    np.testing.assert_allclose(p, [A.mount_x_m + reach, 0.0, B.height_m + A.shoulder_height_m],
-                               atol=1e-6)
+    np.testing.assert_allclose(
+        p, [A.mount_x_m + reach, 0.0, B.height_m + A.shoulder_height_m], atol=1e-6
+    )
 
 
 def test_pitching_the_shoulder_up_raises_the_arm_vertically():
     q = jnp.zeros(6).at[1].set(jnp.pi / 2)
     reach = A.upper_arm_m + A.forearm_m + A.wrist_m + A.wrist2_m + A.gripper_m
     p = arm.gripper_in_base(q, A, B)
-    np.testing.assert_allclose(p, [A.mount_x_m, 0.0, B.height_m + A.shoulder_height_m + reach],
-                               atol=1e-6)
+    np.testing.assert_allclose(
+        p, [A.mount_x_m, 0.0, B.height_m + A.shoulder_height_m + reach], atol=1e-6
+    )
 
 
 def test_jacobian_matches_finite_differences():
@@ -65,7 +67,9 @@ def test_ik_reaches_reachable_points_within_a_centimetre(seed):
     assert goals.shape[0] >= 8
     q0 = jnp.asarray(A.stow_rad)
     q_final = jax.jit(jax.vmap(lambda g: _reach(q0, g, 600)))(goals)
-    err = jnp.linalg.norm(jax.vmap(lambda q: arm.gripper_in_base(q, A, B))(q_final) - goals, axis=-1)
+    err = jnp.linalg.norm(
+        jax.vmap(lambda q: arm.gripper_in_base(q, A, B))(q_final) - goals, axis=-1
+    )
     assert float(jnp.median(err)) < 0.002
     assert float(jnp.quantile(err, 0.9)) < 0.01
 

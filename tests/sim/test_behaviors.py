@@ -27,7 +27,9 @@ def _start(cfg, seed=0, robot_xy=None, robot_yaw=None, target_xy=None, heading=N
         target = target.replace(xy_m=jnp.asarray(target_xy, jnp.float32))
     if heading is not None:
         target = target.replace(heading_rad=jnp.asarray(heading, jnp.float32))
-    return s.replace(robot=robot, target=target, distance_m=jnp.linalg.norm(target.xy_m - robot.xy_m))
+    return s.replace(
+        robot=robot, target=target, distance_m=jnp.linalg.norm(target.xy_m - robot.xy_m)
+    )
 
 
 def test_registry_names_every_behavior():

@@ -51,7 +51,7 @@ def test_auto_reset_starts_a_new_episode_where_one_ends():
     cfg = CFG.replace(episode=CFG.episode.replace(duration_s=0.2))  # 10 steps
     state = vec.batch_reset(jax.random.key(0), cfg, 3)
     step = jax.jit(vec.batch_step)
-    for t in range(10):
+    for _t in range(10):
         state, obs, reward, done, info = step(state, jnp.zeros((3, 3)), cfg)
     assert bool(jnp.all(done)) and bool(jnp.all(info["truncated"]))
     assert bool(jnp.all(state.step == 0))

@@ -14,14 +14,16 @@ CFG = WorldCfg()
 def test_terms_and_weights_by_hand():
     # Closed 0.3 m, target 50 deg off the heading (inside the 60 deg half-cone), no catch:
     # R = 1 * 0.3 + 0.2 * 1 + 5 * 0 = 0.5
-    terms = reward_terms(jnp.array(2.0), jnp.array(1.7), jnp.array(math.radians(50)),
-                         jnp.array(False), CFG.sensor)
+    terms = reward_terms(
+        jnp.array(2.0), jnp.array(1.7), jnp.array(math.radians(50)), jnp.array(False), CFG.sensor
+    )
     np.testing.assert_allclose(terms["pursuit"], 0.3, atol=1e-6)
     assert float(terms["visibility"]) == 1.0 and float(terms["success"]) == 0.0
     np.testing.assert_allclose(total_reward(terms, CFG.reward), 0.5, atol=1e-6)
     # Lost 0.1 m, target behind (70 deg), caught: R = -0.1 + 0 + 5 = 4.9
-    terms = reward_terms(jnp.array(1.0), jnp.array(1.1), jnp.array(math.radians(-70)),
-                         jnp.array(True), CFG.sensor)
+    terms = reward_terms(
+        jnp.array(1.0), jnp.array(1.1), jnp.array(math.radians(-70)), jnp.array(True), CFG.sensor
+    )
     np.testing.assert_allclose(total_reward(terms, CFG.reward), 4.9, atol=1e-6)
 
 

@@ -38,8 +38,10 @@ def test_observations_update_exactly_every_half_second():
     np.testing.assert_allclose(tss[23], 0.48, atol=1e-5)
 
 
-@pytest.mark.parametrize(("angle_deg", "seen"), [(59.0, True), (61.0, False), (-59.0, True),
-                                                 (-61.0, False), (180.0, False)])
+@pytest.mark.parametrize(
+    ("angle_deg", "seen"),
+    [(59.0, True), (61.0, False), (-59.0, True), (-61.0, False), (180.0, False)],
+)
 def test_field_of_view_edges(angle_deg, seen):
     s = _facing(CFG)
     a = math.radians(angle_deg)

@@ -36,8 +36,14 @@ def _run(policy: Callable, key: jax.Array, cfg: WorldCfg, num_episodes: int, num
         return (state, obs, done | now_done, success, steps, ret), None
 
     zeros_b = jnp.zeros(num_episodes, bool)
-    init = (state, obs, zeros_b, zeros_b, jnp.zeros(num_episodes, jnp.int32),
-            jnp.zeros(num_episodes))
+    init = (
+        state,
+        obs,
+        zeros_b,
+        zeros_b,
+        jnp.zeros(num_episodes, jnp.int32),
+        jnp.zeros(num_episodes),
+    )
     (_, _, _, success, steps, ret), _ = jax.lax.scan(body, init, jnp.arange(num_steps))
     return success, steps, ret
 

@@ -7,7 +7,7 @@ seen the target). Usable anywhere a policy is: ``pursuit_policy(cfg)(obs, key) -
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import dataclasses
 
 import jax
 import jax.numpy as jnp
@@ -33,8 +33,9 @@ def pursuit_action(obs: Obs, world: WorldCfg, cfg: PursuitCfg) -> jax.Array:
     dist = jnp.linalg.norm(rel)
     bearing_rad = jnp.arctan2(rel[1], rel[0])
     base = world.base
-    yaw_rate = jnp.clip(cfg.yaw_gain_per_s * bearing_rad, -base.max_yaw_rate_rps,
-                        base.max_yaw_rate_rps)
+    yaw_rate = jnp.clip(
+        cfg.yaw_gain_per_s * bearing_rad, -base.max_yaw_rate_rps, base.max_yaw_rate_rps
+    )
     speed = base.max_forward_mps
     vx = jnp.clip(speed * jnp.cos(bearing_rad), -base.max_backward_mps, base.max_forward_mps)
     vy = jnp.clip(speed * jnp.sin(bearing_rad), -base.max_lateral_mps, base.max_lateral_mps)
@@ -44,9 +45,17 @@ def pursuit_action(obs: Obs, world: WorldCfg, cfg: PursuitCfg) -> jax.Array:
     return jnp.where(searching, search, chase)
 
 
-def pursuit_policy(world: WorldCfg, cfg: PursuitCfg = PursuitCfg()) -> Callable:
-    def policy(obs: Obs, key: jax.Array) -> jax.Array:
-        del key
-        return pursuit_action(obs, world, cfg)
+@dataclasses.dataclass(frozen=True)
+class PursuitPolicy:
+    """``(obs, key) -> action``; a frozen dataclass, so equal configs share compiled code."""
 
-    return policy
+    world: WorldCfg
+    cfg: PursuitCfg = PursuitCfg()
+
+    def __call__(self, obs: Obs, key: jax.Array) -> jax.Array:
+        del key
+        return pursuit_action(obs, self.world, self.cfg)
+
+
+def pursuit_policy(world: WorldCfg, cfg: PursuitCfg | None = None) -> PursuitPolicy:
+    return PursuitPolicy(world, cfg or PursuitCfg())

@@ -18,9 +18,9 @@ from dyncatch.sim.state import RobotState
 
 def command_low(cfg: BaseCfg) -> jax.Array:
     """Lower command bounds (vx, vy, yaw rate), (3,)."""
-    return jnp.stack(
-        [-cfg.max_backward_mps, -cfg.max_lateral_mps, -cfg.max_yaw_rate_rps]
-    ).astype(jnp.float32)
+    return jnp.stack([-cfg.max_backward_mps, -cfg.max_lateral_mps, -cfg.max_yaw_rate_rps]).astype(
+        jnp.float32
+    )
 
 
 def command_high(cfg: BaseCfg) -> jax.Array:

@@ -26,8 +26,7 @@ _ROBOT_PLACEMENT_TRIES = 8
 
 def gripper_world(robot: RobotState, gripper_base: jax.Array) -> jax.Array:
     """Gripper point in the world, (3,), from its base-frame position."""
-    return jnp.concatenate([robot.xy_m + rotate(gripper_base[:2], robot.yaw_rad),
-                            gripper_base[2:]])
+    return jnp.concatenate([robot.xy_m + rotate(gripper_base[:2], robot.yaw_rad), gripper_base[2:]])
 
 
 def target_xyz(target: TargetState, cfg: WorldCfg) -> jax.Array:
@@ -96,10 +95,12 @@ def _physics_substep(robot, target, command, best_err, cfg: WorldCfg, dt_s, refl
     gripper_base = gripper_in_base(robot.arm_q_rad, cfg.arm, cfg.base)
     best_err = jnp.minimum(best_err, catch_error_m(gripper_world(robot, gripper_base), target, cfg))
     rel = target.xy_m - robot.xy_m
-    goal_base = jnp.concatenate([
-        world_to_body(rel, robot.yaw_rad),
-        jnp.full((1,), cfg.target.height_m + cfg.arm.catch_offset_m),
-    ])
+    goal_base = jnp.concatenate(
+        [
+            world_to_body(rel, robot.yaw_rad),
+            jnp.full((1,), cfg.target.height_m + cfg.arm.catch_offset_m),
+        ]
+    )
     active = jnp.sum(rel * rel) <= cfg.arm.activation_distance_m**2
     q = arm_substep(robot.arm_q_rad, gripper_base, goal_base, active, cfg.arm, dt_s)
     robot = base_substep(robot.replace(arm_q_rad=q), command, cfg.base, cfg.arena, dt_s)
@@ -158,11 +159,19 @@ def step(state: EnvState, action: jax.Array, cfg: WorldCfg):
     )
     distance = jnp.linalg.norm(target.xy_m - robot.xy_m)
     terms = reward_terms(
-        state.distance_m, distance, bearing(robot.xy_m, robot.yaw_rad, target.xy_m), success,
+        state.distance_m,
+        distance,
+        bearing(robot.xy_m, robot.yaw_rad, target.xy_m),
+        success,
         cfg.sensor,
     )
     new_state = EnvState(
-        robot=robot, target=target, sensor=sensor, step=step_count, key=key, success=success,
+        robot=robot,
+        target=target,
+        sensor=sensor,
+        step=step_count,
+        key=key,
+        success=success,
         distance_m=distance,
     )
     truncated = (step_count >= cfg.episode.max_steps) & ~success
@@ -174,4 +183,10 @@ def step(state: EnvState, action: jax.Array, cfg: WorldCfg):
         distance_m=distance,
         catch_error_m=best_err,
     )
-    return new_state, observe(new_state, cfg), total_reward(terms, cfg.reward), success | truncated, info
+    return (
+        new_state,
+        observe(new_state, cfg),
+        total_reward(terms, cfg.reward),
+        success | truncated,
+        info,
+    )

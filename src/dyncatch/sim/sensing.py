@@ -29,8 +29,9 @@ def in_view(robot: RobotState, target_xy_m: jax.Array, cfg: WorldCfg) -> jax.Arr
     """() bool: the point lies inside the camera's cone and range."""
     d = target_xy_m - robot.xy_m
     within_range = jnp.sum(d * d) <= cfg.sensor.range_m**2
-    return within_range & (jnp.abs(bearing(robot.xy_m, robot.yaw_rad, target_xy_m))
-                           <= 0.5 * cfg.sensor.fov_rad)
+    return within_range & (
+        jnp.abs(bearing(robot.xy_m, robot.yaw_rad, target_xy_m)) <= 0.5 * cfg.sensor.fov_rad
+    )
 
 
 def pose(robot: RobotState) -> jax.Array:
@@ -64,14 +65,18 @@ def sensor_tick(
     noise: jax.Array,
     cfg: WorldCfg,
 ) -> SensorState:
-    """Update the sensor at control step ``step`` (after the world moved); ``noise`` is (2,) N(0,1)."""
+    """Update the sensor at control step ``step``, after the world moved.
+
+    ``noise`` is (2,) standard normal, scaled by ``sensor.noise_m``.
+    """
     period = period_steps(cfg)
     lag = latency_steps(cfg)
     capture = step % period == 0
     seen_now = in_view(robot, target.xy_m, cfg)
     sensor = sensor.replace(
-        pending_xy_m=jnp.where(capture, target.xy_m + cfg.sensor.noise_m * noise,
-                               sensor.pending_xy_m),
+        pending_xy_m=jnp.where(
+            capture, target.xy_m + cfg.sensor.noise_m * noise, sensor.pending_xy_m
+        ),
         pending_seen=jnp.where(capture, seen_now, sensor.pending_seen),
         pending_robot_pose=jnp.where(capture, pose(robot), sensor.pending_robot_pose),
     )

@@ -20,9 +20,7 @@ def get_behavior(name: str) -> Behavior:
         return BEHAVIORS[name]
     except KeyError:
         known = ", ".join(sorted(BEHAVIORS))
-        raise ValueError(
-            f"unknown target behavior {name!r}: choose one of {known}"
-        ) from None
+        raise ValueError(f"unknown target behavior {name!r}: choose one of {known}") from None
 
 
 __all__ = ["BEHAVIORS", "MEMORY_SIZE", "Behavior", "get_behavior"]

@@ -1,0 +1,1 @@
+"""Throughput measurements (results go to docs/performance.md, never into timed tests)."""

@@ -1,0 +1,65 @@
+"""Environment steps per second: the jitted batched simulator vs the Gymnasium adapter."""
+
+from __future__ import annotations
+
+import time
+from functools import partial
+
+import jax
+import numpy as np
+
+from dyncatch.sim.base import command_high, command_low
+from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.vec import batch_reset, batch_step
+
+
+@partial(jax.jit, static_argnames=("num_envs", "num_steps"))
+def _random_action_rollout(state, key, cfg: WorldCfg, num_envs: int, num_steps: int):
+    lo, hi = command_low(cfg.base), command_high(cfg.base)
+
+    def body(s, k):
+        action = jax.random.uniform(k, (num_envs, 3), minval=lo, maxval=hi)
+        s, _, reward, _, _ = batch_step(s, action, cfg)
+        return s, reward.sum()
+
+    return jax.lax.scan(body, state, jax.random.split(key, num_steps))
+
+
+def jax_steps_per_s(cfg: WorldCfg, num_envs: int, min_steps: int = 500_000, repeats: int = 3):
+    """Best of ``repeats`` timed runs of a jitted scan (compilation excluded)."""
+    num_steps = int(np.clip(min_steps // num_envs, 50, 5000))
+    state = batch_reset(jax.random.key(0), cfg, num_envs)
+    out = _random_action_rollout(state, jax.random.key(1), cfg, num_envs, num_steps)
+    jax.block_until_ready(out)
+    best = float("inf")
+    for r in range(repeats):
+        t0 = time.perf_counter()
+        out = _random_action_rollout(out[0], jax.random.key(2 + r), cfg, num_envs, num_steps)
+        jax.block_until_ready(out)
+        best = min(best, time.perf_counter() - t0)
+    return num_envs * num_steps / best
+
+
+def gym_loop_steps_per_s(cfg: WorldCfg, num_steps: int = 2000) -> float:
+    """A plain Python loop over the single-environment Gymnasium adapter."""
+    from dyncatch.gym.catch_env import CatchEnv
+
+    env = CatchEnv(behavior=cfg.target.behavior, world=cfg)
+    env.reset(seed=0)
+    env.action_space.seed(0)
+    for _ in range(20):  # compile and warm up
+        env.step(env.action_space.sample())
+    t0 = time.perf_counter()
+    for _ in range(num_steps):
+        _, _, term, trunc, _ = env.step(env.action_space.sample())
+        if term or trunc:
+            env.reset()
+    return num_steps / (time.perf_counter() - t0)
+
+
+def run_env_benchmark(cfg: WorldCfg, num_envs: tuple[int, ...]) -> list[dict]:
+    rows = [
+        {"backend": "jax", "num_envs": n, "steps_per_s": jax_steps_per_s(cfg, n)} for n in num_envs
+    ]
+    rows.append({"backend": "gym_loop", "num_envs": 1, "steps_per_s": gym_loop_steps_per_s(cfg)})
+    return rows

@@ -1,0 +1,34 @@
+"""The registry of sub-commands.
+
+A command is a frozen dataclass (its fields are the flags) and the function that runs it;
+a group (``dyncatch bench env``) is a dict of commands under one name.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from dyncatch.cli.bench import EnvBenchCmd, run_env_bench
+from dyncatch.cli.demo import DemoCmd, run_demo
+from dyncatch.cli.render import RenderCmd, run_render
+
+
+@dataclass(frozen=True)
+class Command:
+    spec: type
+    run: Callable[[Any], Any]
+
+
+@dataclass(frozen=True)
+class Group:
+    doc: str
+    commands: dict[str, Command]
+
+
+COMMANDS: dict[str, Command | Group] = {
+    "demo": Command(DemoCmd, run_demo),
+    "render": Command(RenderCmd, run_render),
+    "bench": Group("Throughput benchmarks.", {"env": Command(EnvBenchCmd, run_env_bench)}),
+}

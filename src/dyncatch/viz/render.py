@@ -1,0 +1,318 @@
+"""Top-down frames of a recorded episode, and writing them as a GIF or MP4.
+
+One Agg figure (no pyplot, no global state) is built per call of ``render_frames``; each
+frame only moves its artists and redraws. Colours are fixed module constants so that tests
+can look for them in the pixels.
+"""
+
+from __future__ import annotations
+
+import os
+import uuid
+import warnings
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.collections import LineCollection
+from matplotlib.colors import to_rgb
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Circle, Polygon, Rectangle, Wedge
+
+from dyncatch.sim.config import WorldCfg
+
+TARGET_COLOR = "#d62728"
+ROBOT_COLOR = "#1f5fbf"
+GRIPPER_COLOR = "#111111"
+SEEN_COLOR = "#ff7f0e"
+PRED_COLOR = "#9467bd"
+FLOOR_COLOR = "#f4f4f0"
+WALL_COLOR = "#333333"
+FOV_SEEN_COLOR = "#2ca02c"
+FOV_BLIND_COLOR = "#bcbd22"
+CAUGHT_COLOR = "#1a7f1a"
+TRAIL_S = 2.0
+"""Length of the target's fading trail."""
+VIDEO_SUFFIXES = (".gif", ".mp4")
+
+_DPI = 100
+_MARGIN_M = 0.15
+_BAND_M = 0.75
+_HEADING_LEN_M = 0.8
+"""The heading arrow sticks out this far ahead of the footprint."""
+
+
+def _arrow(start: np.ndarray, vec: np.ndarray, width: float, head_len: float) -> np.ndarray:
+    """Corners (7, 2) of a flat arrow from ``start`` along ``vec`` (all in metres)."""
+    length = float(np.hypot(*vec))
+    if length < 1e-6:
+        return np.repeat(np.asarray(start, float)[None], 7, axis=0)
+    u = vec / length
+    n = np.array([-u[1], u[0]])
+    head = min(head_len, length)
+    neck = start + (length - head) * u
+    w = 0.5 * width
+    return np.array([start + w * n, neck + w * n, neck + 2.5 * w * n, start + vec,
+                     neck - 2.5 * w * n, neck - w * n, start - w * n])  # fmt: skip
+
+
+def view_extent_m(cfg: WorldCfg) -> tuple[float, float]:
+    """Lower and upper world coordinate shown on both axes: the arena plus the text bands."""
+    return -_MARGIN_M - _BAND_M, cfg.arena.size_m + _MARGIN_M + _BAND_M
+
+
+def pixel_of(xy_m: np.ndarray, cfg: WorldCfg, size_px: int) -> np.ndarray:
+    """(column, row) pixel of world points (..., 2) in a frame of ``size_px``, row 0 on top."""
+    lo, hi = view_extent_m(cfg)
+    frac = (np.asarray(xy_m, float) - lo) / (hi - lo)
+    return np.stack([frac[..., 0] * size_px, (1.0 - frac[..., 1]) * size_px], axis=-1)
+
+
+def _footprint(xy: np.ndarray, yaw: float, length: float, width: float) -> np.ndarray:
+    """Corners (4, 2) of the base rectangle centred on ``xy`` and rotated by ``yaw``."""
+    half = 0.5 * np.array([[length, width], [-length, width], [-length, -width], [length, -width]])
+    c, s = np.cos(yaw), np.sin(yaw)
+    return xy + half @ np.array([[c, s], [-s, c]])
+
+
+class _Scene:
+    """The figure and its moving artists; ``draw(i)`` renders row ``i`` of a trajectory."""
+
+    def __init__(self, traj: dict[str, np.ndarray], cfg: WorldCfg, size_px: int):
+        self.traj = traj
+        self.fig = Figure(figsize=(size_px / _DPI, size_px / _DPI), dpi=_DPI)
+        self.canvas = FigureCanvasAgg(self.fig)
+        self.trail_rows = max(1, round(TRAIL_S / cfg.episode.dt_s))
+        self.mount_x = cfg.arm.mount_x_m
+        self.base_dims = (cfg.base.length_m, cfg.base.width_m)
+        self.half_fov_deg = np.degrees(0.5 * cfg.sensor.fov_rad)
+        self.trail_rgb = np.array(to_rgb(TARGET_COLOR))
+        pt = size_px / 480.0  # markers and fonts scale with the frame
+        ax = self.fig.add_axes((0.0, 0.0, 1.0, 1.0))
+        arena = self._add_static(ax, cfg, pt, with_pred="pred_vel_mps" in traj)
+        lo, hi = view_extent_m(cfg)
+
+        self.fov = ax.add_patch(Wedge((0, 0), cfg.sensor.range_m, 0, 0, lw=0, zorder=1))
+        self.fov.set_clip_path(arena)  # the camera sees no farther than the walls
+        self.reach = ax.add_patch(
+            Circle(
+                (0, 0),
+                cfg.arm.activation_distance_m,
+                fill=False,
+                ls="--",
+                lw=pt,
+                ec=ROBOT_COLOR,
+                alpha=0.7,
+                zorder=2,
+            )
+        )
+        self.trail = ax.add_collection(LineCollection([], lw=2.5 * pt, capstyle="round", zorder=3))
+        self.heading = ax.add_patch(Polygon(np.zeros((7, 2)), fc=ROBOT_COLOR, lw=0, zorder=3.5))
+        self.body = ax.add_patch(
+            Polygon(np.zeros((4, 2)), fc=ROBOT_COLOR, ec="black", lw=0.8 * pt, alpha=0.9, zorder=4)
+        )
+        (self.arm_line,) = ax.plot([], [], color=GRIPPER_COLOR, lw=1.5 * pt, zorder=5)
+        (self.gripper,) = ax.plot([], [], "o", color=GRIPPER_COLOR, ms=4 * pt, zorder=6)
+        (self.seen,) = ax.plot(
+            [], [], "o", mfc="none", mec=SEEN_COLOR, mew=2 * pt, ms=12 * pt, zorder=6
+        )
+        self.pred = ax.add_patch(
+            Polygon(
+                np.zeros((7, 2)),
+                fc=PRED_COLOR,
+                lw=0,
+                alpha=0.9,
+                zorder=6,
+                visible="pred_vel_mps" in traj,
+            )
+        )
+        target_ms = max(8 * pt, 2 * cfg.target.radius_m * size_px / (hi - lo))
+        (self.target,) = ax.plot(
+            [], [], "o", color=TARGET_COLOR, mec="black", mew=0.6 * pt, ms=target_ms, zorder=7
+        )
+        self.text = ax.text(
+            0.0,
+            cfg.arena.size_m + _MARGIN_M + 0.5 * _BAND_M,
+            "",
+            va="center",
+            family="monospace",
+            fontsize=8.5 * pt,
+            zorder=8,
+        )
+        # Blitting: the static layer (floor, walls, grid, key) is drawn once and restored
+        # before each frame; only the moving artists are drawn again on top of it.
+        self.moving = sorted(
+            [self.fov, self.reach, self.trail, self.heading, self.body, self.arm_line,
+             self.gripper, self.seen, self.pred, self.target, self.text],
+            key=lambda a: a.get_zorder(),
+        )  # fmt: skip
+        for artist in self.moving:
+            artist.set_animated(True)
+        self.canvas.draw()
+        self.background = self.canvas.copy_from_bbox(self.fig.bbox)
+
+    @staticmethod
+    def _add_static(ax, cfg: WorldCfg, pt: float, with_pred: bool) -> Rectangle:
+        """Floor, walls, a 2 m grid and the key; returns the arena patch (for clipping)."""
+        size = cfg.arena.size_m
+        # A square view: the arena, a band above it for the status line, one below for the key.
+        lo, hi = view_extent_m(cfg)
+        ax.set_xlim(lo, hi)
+        ax.set_ylim(lo, hi)
+        ax.set_aspect("equal")
+        ax.set_axis_off()
+        arena = ax.add_patch(Rectangle((0, 0), size, size, fc=FLOOR_COLOR, ec=WALL_COLOR,
+                                       lw=3 * pt, zorder=0))  # fmt: skip
+        for v in np.arange(2.0, size, 2.0):
+            ax.plot([v, v], [0, size], color="#dddddd", lw=0.6 * pt, zorder=0.5)
+            ax.plot([0, size], [v, v], color="#dddddd", lw=0.6 * pt, zorder=0.5)
+        key = [
+            Line2D([], [], marker="s", ls="", color=ROBOT_COLOR, label="robot"),
+            Line2D([], [], marker="o", ls="", color=TARGET_COLOR, mec="black", label="target"),
+            Line2D([], [], marker="o", ls="", mfc="none", mec=SEEN_COLOR, mew=2, label="last seen"),
+            Line2D([], [], ls="--", color=ROBOT_COLOR, label="arm reach"),
+            Line2D([], [], marker="o", ls="", color=GRIPPER_COLOR, ms=4, label="gripper"),
+        ]
+        if with_pred:
+            key.append(Line2D([], [], color=PRED_COLOR, lw=2, label="pred. vel (1 s)"))
+        ax.legend(handles=key, loc="center", bbox_to_anchor=(0.5 * size, lo + 0.5 * _BAND_M),
+                  bbox_transform=ax.transData, ncol=len(key), frameon=False,
+                  fontsize=7.5 * pt, handlelength=1.2, handletextpad=0.4, columnspacing=1.0,
+                  borderaxespad=0.0)  # fmt: skip
+        return arena
+
+    def draw(self, i: int) -> np.ndarray:
+        """Render row ``i``; returns (H, W, 3) uint8."""
+        tr = self.traj
+        xy, yaw = tr["robot_xy_m"][i].astype(float), float(tr["robot_yaw_rad"][i])
+        heading = np.array([np.cos(yaw), np.sin(yaw)])
+        yaw_deg = np.degrees(yaw)
+        visible = bool(tr["visible"][i])
+
+        self.fov.set_center(xy)
+        self.fov.set_theta1(yaw_deg - self.half_fov_deg)
+        self.fov.set_theta2(yaw_deg + self.half_fov_deg)
+        self.fov.set_facecolor(FOV_SEEN_COLOR if visible else FOV_BLIND_COLOR)
+        self.fov.set_alpha(0.16 if visible else 0.12)
+        self.reach.set_center(xy)
+        self.body.set_xy(_footprint(xy, yaw, *self.base_dims))
+        nose = xy + 0.5 * self.base_dims[0] * heading
+        self.heading.set_xy(_arrow(nose, _HEADING_LEN_M * heading, 0.05, 0.22))
+        grip = tr["gripper_xyz_m"][i, :2]
+        mount = xy + self.mount_x * heading
+        self.arm_line.set_data([mount[0], grip[0]], [mount[1], grip[1]])
+        self.gripper.set_data([grip[0]], [grip[1]])
+
+        t_xy = tr["target_xy_m"][i]
+        self.target.set_data([t_xy[0]], [t_xy[1]])
+        lo = max(0, i - self.trail_rows)
+        pts = tr["target_xy_m"][lo : i + 1]
+        segments = np.stack([pts[:-1], pts[1:]], axis=1)
+        alpha = np.linspace(0.05, 0.8, len(segments))
+        self.trail.set_segments(segments)
+        self.trail.set_color(np.column_stack([np.tile(self.trail_rgb, (len(segments), 1)), alpha]))
+        if tr["ever_seen"][i]:
+            self.seen.set_data([tr["obs_xy_m"][i, 0]], [tr["obs_xy_m"][i, 1]])
+        else:
+            self.seen.set_data([], [])
+        if "pred_vel_mps" in tr:  # drawn as the displacement over one second
+            self.pred.set_xy(_arrow(t_xy, tr["pred_vel_mps"][i], 0.06, 0.22))
+
+        caught = bool(tr["success"][i])
+        status = "CAUGHT" if caught else ("in view" if visible else "out of view")
+        self.text.set_color(CAUGHT_COLOR if caught else "black")
+        self.text.set_text(
+            f"t {tr['time_s'][i]:5.2f} s | target {tr['target_speed_mps'][i]:.2f} m/s | "
+            f"robot {tr['robot_speed_mps'][i]:.2f} m/s | {status}"
+        )
+        self.canvas.restore_region(self.background)
+        for artist in self.moving:
+            self.fig.draw_artist(artist)
+        return np.asarray(self.canvas.buffer_rgba())[..., :3].copy()
+
+
+def frame_rows(num_rows: int, every: int) -> list[int]:
+    """Row indices drawn: every ``every``-th row, always including the last one."""
+    if every < 1:
+        raise ValueError(f"every must be at least 1, got {every}")
+    rows = list(range(0, num_rows, every))
+    if rows and rows[-1] != num_rows - 1:
+        rows.append(num_rows - 1)
+    return rows
+
+
+def render_frames(
+    traj: dict[str, np.ndarray], cfg: WorldCfg, every: int = 2, size_px: int = 480
+) -> list[np.ndarray]:
+    """Top-down frames of a trajectory from ``record_episode``.
+
+    Draws every ``every``-th row (and the last). Each frame is ``(size_px, size_px, 3)``
+    uint8 showing the arena, the robot footprint and heading, the camera cone (green while
+    the last frame saw the target), the arm's activation circle, the gripper, the target and
+    its last 2 s, the held sighting (hollow ring), ``pred_vel_mps`` if recorded (an arrow of
+    one second of motion) and a status line.
+    """
+    if size_px < 64:
+        raise ValueError(f"size_px must be at least 64, got {size_px}")
+    scene = _Scene(traj, cfg, size_px)
+    frames = [scene.draw(i) for i in frame_rows(len(traj["time_s"]), every)]
+    if frames and frames[0].shape[:2] != (size_px, size_px):
+        raise RuntimeError(f"Agg drew {frames[0].shape[:2]} pixels, expected {size_px}")
+    return frames
+
+
+def write_video(frames: Sequence[np.ndarray], path: str | os.PathLike, fps: int) -> Path:
+    """Write (H, W, 3) uint8 frames to ``path`` (``.gif`` or ``.mp4``) atomically.
+
+    The parent folder is created; the file appears only once complete (written to a
+    temporary file beside it, then renamed). Returns the path.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in VIDEO_SUFFIXES:
+        raise ValueError(
+            f"cannot write video {str(path)!r}: use one of the suffixes {', '.join(VIDEO_SUFFIXES)}"
+        )
+    if not frames:
+        raise ValueError("no frames to write")
+    if fps <= 0:
+        raise ValueError(f"fps must be positive, got {fps}")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    # A fresh name beside the target (same file system, so os.replace is atomic); the
+    # writer creates it, so it gets the usual permissions rather than mkstemp's 0600.
+    tmp = str(path.parent / f".{path.stem}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp{suffix}")
+    try:
+        if suffix == ".gif":
+            _write_gif(frames, tmp, fps)
+        else:
+            _write_mp4(frames, tmp, fps)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def _write_gif(frames: Sequence[np.ndarray], path: str, fps: int) -> None:
+    import imageio.v3 as iio
+
+    # Pillow's GIF writer takes the frame duration in milliseconds; loop=0 repeats forever.
+    iio.imwrite(path, np.stack(frames), extension=".gif", duration=1000.0 / fps, loop=0)
+
+
+def _write_mp4(frames: Sequence[np.ndarray], path: str, fps: int) -> None:
+    import imageio_ffmpeg
+
+    h, w = frames[0].shape[:2]
+    writer = imageio_ffmpeg.write_frames(path, (w, h), fps=fps, codec="libx264",
+                                         pix_fmt_out="yuv420p", macro_block_size=2,
+                                         ffmpeg_log_level="error")  # fmt: skip
+    with warnings.catch_warnings():
+        # JAX warns on any fork; the ffmpeg subprocess execs at once and shares no threads.
+        warnings.filterwarnings("ignore", message="os.fork", category=RuntimeWarning)
+        writer.send(None)
+    for frame in frames:
+        writer.send(np.ascontiguousarray(frame))
+    writer.close()

@@ -1,0 +1,127 @@
+"""Record one episode of one environment as per-step numpy arrays (for plots and videos).
+
+Row 0 is the state right after ``reset`` (time 0); row k is the state after k control steps
+(time k * dt). The rollout is one jitted ``lax.scan`` over the episode limit with no
+auto-reset; rows after the first ``done`` are dropped on the host.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from functools import partial
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.env import observe, reset, step
+from dyncatch.sim.state import EnvState, Obs
+
+ExtraFn = Callable[[EnvState, Obs], dict[str, jax.Array]]
+
+BUILTIN_KEYS = (
+    "step",
+    "time_s",
+    "robot_xy_m",
+    "robot_yaw_rad",
+    "robot_speed_mps",
+    "gripper_xyz_m",
+    "target_xy_m",
+    "target_speed_mps",
+    "obs_xy_m",
+    "visible",
+    "ever_seen",
+    "success",
+    "done",
+)
+
+
+def _snapshot(state: EnvState, done: jax.Array, cfg: WorldCfg, extra_fn, obs: Obs) -> dict:
+    """The recorded values of one state (one row of the trajectory)."""
+    row = {
+        "step": state.step,
+        "robot_xy_m": state.robot.xy_m,
+        "robot_yaw_rad": state.robot.yaw_rad,
+        "robot_speed_mps": jnp.linalg.norm(state.robot.vel_body_mps),
+        "gripper_xyz_m": state.robot.gripper_xyz_m,
+        "target_xy_m": state.target.xy_m,
+        "target_speed_mps": state.target.speed_mps,
+        "obs_xy_m": state.sensor.obs_xy_m,
+        "visible": state.sensor.visible,
+        "ever_seen": state.sensor.ever_seen,
+        "success": state.success,
+        "done": done,
+    }
+    if extra_fn is not None:
+        extra = extra_fn(state, obs)
+        clash = sorted(set(extra) & set(BUILTIN_KEYS))
+        if clash:
+            raise ValueError(f"extra_fn returned built-in keys {clash}; rename them")
+        row.update(extra)
+    return row
+
+
+@partial(jax.jit, static_argnames=("policy", "num_steps", "extra_fn"))
+def _rollout(
+    policy: Callable, key: jax.Array, cfg: WorldCfg, num_steps: int, extra_fn: ExtraFn | None
+) -> dict[str, jax.Array]:
+    """Rows of ``num_steps + 1`` states: each value has a leading axis of that length."""
+    k_reset, k_act = jax.random.split(key)
+    state = reset(k_reset, cfg)
+    obs = observe(state, cfg)
+    first = _snapshot(state, jnp.zeros((), bool), cfg, extra_fn, obs)
+
+    def body(carry, t):
+        state, obs = carry
+        action = policy(obs, jax.random.fold_in(k_act, t))
+        state, obs, _, done, _ = step(state, action, cfg)
+        return (state, obs), _snapshot(state, done, cfg, extra_fn, obs)
+
+    _, rows = jax.lax.scan(body, (state, obs), jnp.arange(num_steps))
+    return jax.tree.map(lambda a, b: jnp.concatenate([a[None], b]), first, rows)
+
+
+def record_episode(
+    policy: Callable,
+    key: jax.Array,
+    cfg: WorldCfg,
+    max_steps: int | None = None,
+    extra_fn: ExtraFn | None = None,
+) -> dict[str, np.ndarray]:
+    """Play one episode of ``policy(obs, key) -> action`` and return it row by row.
+
+    Args:
+        policy: a pure ``(obs, key) -> action (3,)``; it is a static jit argument, so pass
+            the same object to reuse the compiled rollout.
+        key: PRNG key of the episode (reset and policy keys are split from it).
+        cfg: the world.
+        max_steps: steps to simulate; defaults to the episode limit ``cfg.episode.max_steps``.
+        extra_fn: optional ``(state, obs) -> {name: array}`` recorded per row next to the
+            built-in values (e.g. ``pred_vel_mps`` (2,), which the renderer draws as an arrow).
+
+    Returns:
+        ``{name: (T, ...)}`` with T = 1 + steps up to and including the first ``done`` (all
+        rows if the episode never ends within ``max_steps``): ``step`` (T,) int,
+        ``time_s`` (T,) float64, ``robot_xy_m`` (T, 2), ``robot_yaw_rad`` (T,),
+        ``robot_speed_mps`` (T,), ``gripper_xyz_m`` (T, 3), ``target_xy_m`` (T, 2),
+        ``target_speed_mps`` (T,),
+        ``obs_xy_m`` (T, 2) (the held sighting), ``visible`` / ``ever_seen`` / ``success`` /
+        ``done`` (T,) bool, and the ``extra_fn`` values.
+    """
+    num_steps = int(cfg.episode.max_steps) if max_steps is None else int(max_steps)
+    if num_steps < 1:
+        raise ValueError(f"max_steps must be at least 1, got {num_steps}")
+    rows = jax.device_get(_rollout(policy, key, cfg, num_steps, extra_fn))
+    done = np.asarray(rows["done"])
+    end = int(np.argmax(done)) + 1 if done.any() else len(done)
+    traj = {name: np.asarray(value)[:end] for name, value in rows.items()}
+    # On the host in float64, so that times are exact multiples of dt.
+    traj["time_s"] = traj["step"] * cfg.episode.dt_s
+    return traj
+
+
+def catch_time_s(traj: dict[str, np.ndarray]) -> float | None:
+    """Time of the first successful row of a recorded episode, or None if never caught."""
+    hits = np.flatnonzero(traj["success"])
+    return float(traj["time_s"][hits[0]]) if hits.size else None

@@ -1,0 +1,211 @@
+"""CatchEnv: gymnasium's checker, seeding, parity with the pure simulator, clipping."""
+
+from __future__ import annotations
+
+import warnings
+
+import gymnasium
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import dyncatch  # noqa: F401  (registers the gymnasium ids)
+from dyncatch.gym import CATCH_ID, CATCH_VECTOR_ID, register_envs
+from dyncatch.gym.catch_env import CatchEnv, seed_to_key
+from dyncatch.gym.vector_env import CatchVectorEnv
+from dyncatch.sim import env as sim_env
+from dyncatch.sim.behaviors import BEHAVIORS
+from dyncatch.sim.validate import ConfigError
+
+NUM_STEPS = 20
+# check_env warns about these by design: the observation is unbounded and the action is the
+# physical command (vx in [-1, 2] m/s, ...), not a normalised one.
+EXPECTED_WARNINGS = ("infinity", "symmetric and normalized")
+
+
+def fixed_actions(num_steps: int = NUM_STEPS) -> np.ndarray:
+    """A varied command sequence inside the limits, (num_steps, 3)."""
+    t = np.arange(num_steps, dtype=np.float32)[:, None]
+    return np.array([1.5, 0.6, 1.2], np.float32) * np.sin(0.3 * t + np.array([0.0, 1.0, 2.0]))
+
+
+def rollout(env: CatchEnv, seed: int, actions: np.ndarray):
+    """(obs (T+1, 17), rewards (T,), infos [T]) from reset(seed) under ``actions``."""
+    obs, _ = env.reset(seed=seed)
+    all_obs, rewards, infos = [obs], [], []
+    for action in actions:
+        obs, reward, _, _, info = env.step(action)
+        all_obs.append(obs)
+        rewards.append(reward)
+        infos.append(info)
+    return np.stack(all_obs), np.array(rewards), infos
+
+
+@pytest.fixture(scope="module")
+def made_envs() -> dict[str, CatchEnv]:
+    """One CatchEnv per behaviour, built through gymnasium.make (compiles once each)."""
+    return {name: gymnasium.make(CATCH_ID, behavior=name).unwrapped for name in BEHAVIORS}
+
+
+@pytest.fixture(scope="module")
+def env(made_envs) -> CatchEnv:
+    return made_envs["reactive"]
+
+
+class TestGymnasiumApi:
+    @pytest.mark.parametrize("behavior", sorted(BEHAVIORS))
+    def test_check_env_passes(self, made_envs, behavior):
+        env = made_envs[behavior]
+        assert env.world.target.behavior == behavior
+        assert env.spec is not None and env.spec.id == CATCH_ID
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            check_env(env)
+        unexpected = [
+            str(w.message)
+            for w in caught
+            if not any(text in str(w.message) for text in EXPECTED_WARNINGS)
+        ]
+        assert unexpected == []
+
+    def test_spaces(self, env):
+        assert env.observation_space.shape == (17,)
+        assert env.observation_space.dtype == np.float32
+        np.testing.assert_array_equal(env.action_space.low, [-1.0, -1.0, -2.0])
+        np.testing.assert_array_equal(env.action_space.high, [2.0, 1.0, 2.0])
+
+    def test_step_returns_python_scalars(self, env):
+        env.reset(seed=0)
+        obs, reward, terminated, truncated, info = env.step(np.zeros(3, np.float32))
+        assert obs.dtype == np.float32 and obs.shape == (17,)
+        assert type(reward) is float and type(terminated) is bool and type(truncated) is bool
+        assert type(info["success"]) is bool and type(info["distance_m"]) is float
+        w = env.world.reward
+        terms = ("pursuit", "visibility", "success")
+        expected = sum(getattr(w, k) * info[f"reward/{k}"] for k in terms)
+        assert reward == pytest.approx(expected, abs=1e-6)
+
+    def test_truncates_itself_at_the_episode_limit(self, env):
+        # 0.2 s at 50 Hz = 10 steps; duration_s is a traced leaf, so this does not recompile.
+        world = env.world.replace(episode=env.world.episode.replace(duration_s=0.2))
+        short = CatchEnv(world=world)
+        short.reset(seed=1)
+        truncations = [short.step(np.zeros(3, np.float32))[3] for _ in range(10)]
+        assert truncations == [False] * 9 + [True]
+
+
+class TestSeeding:
+    def test_same_seed_same_trajectory(self, env):
+        actions = fixed_actions()
+        obs_a, rew_a, info_a = rollout(env, 7, actions)
+        obs_b, rew_b, info_b = rollout(env, 7, actions)
+        np.testing.assert_array_equal(obs_a, obs_b)
+        np.testing.assert_array_equal(rew_a, rew_b)
+        assert info_a == info_b
+
+    def test_other_seed_other_start(self, env):
+        obs_7, _ = env.reset(seed=7)
+        obs_8, _ = env.reset(seed=8)
+        assert np.abs(obs_7 - obs_8).max() > 0.1
+
+    def test_unseeded_resets_follow_the_seed(self, env):
+        env.reset(seed=3)
+        first = [env.reset()[0] for _ in range(2)]
+        env.reset(seed=3)
+        second = [env.reset()[0] for _ in range(2)]
+        np.testing.assert_array_equal(np.stack(first), np.stack(second))
+        assert np.abs(first[0] - first[1]).max() > 0.1
+
+    def test_seed_to_key(self):
+        for seed in (0, 1, 123, 2**32 - 1):
+            np.testing.assert_array_equal(seed_to_key(seed), jax.random.PRNGKey(seed))
+        keys = {tuple(np.asarray(seed_to_key(s)).tolist()) for s in (0, 5, 2**32, 2**32 + 5, 2**70)}
+        assert len(keys) == 5
+        with pytest.raises(ValueError, match="non-negative"):
+            seed_to_key(-1)
+
+
+def test_matches_pure_simulator(env):
+    """20 steps of CatchEnv equal eager sim.env.reset/step from PRNGKey(seed)."""
+    seed, actions = 11, fixed_actions()
+    obs, rewards, infos = rollout(env, seed, actions)
+
+    state = sim_env.reset(jax.random.PRNGKey(seed), env.world)
+    np.testing.assert_allclose(obs[0], sim_env.observe(state, env.world).flat, atol=1e-5)
+    for t, action in enumerate(actions):
+        state, ref_obs, ref_reward, ref_done, ref_info = sim_env.step(
+            state, jnp.asarray(action), env.world
+        )
+        np.testing.assert_allclose(obs[t + 1], ref_obs.flat, atol=1e-5)
+        np.testing.assert_allclose(rewards[t], ref_reward, atol=1e-5)
+        np.testing.assert_allclose(infos[t]["distance_m"], ref_info["distance_m"], atol=1e-5)
+        assert infos[t]["terminated"] == bool(ref_info["terminated"])
+        assert infos[t]["truncated"] == bool(ref_info["truncated"])
+        assert bool(ref_done) is False
+
+
+def test_obs_in_space_and_actions_clipped(env):
+    """Commands 5x the limits, held 1 s each: the base never goes faster than the limits.
+
+    Gait noise is clipped to the command limits too, so the bound is exact everywhere.
+    """
+    high = env.action_space.high.astype(np.float64)
+    low = env.action_space.low.astype(np.float64)
+    margin = 1e-5
+    rng = np.random.default_rng(0)
+    velocities = []
+    for seed in range(4):
+        obs, _ = env.reset(seed=seed)
+        for _ in range(6):
+            action = (rng.choice([-5.0, 5.0], size=3) * high).astype(np.float32)
+            for _ in range(50):
+                obs, *_ = env.step(action)
+                assert env.observation_space.contains(obs), obs
+                velocities.append(obs[4:7])
+    velocities = np.array(velocities)
+    assert np.all(velocities <= high + margin)
+    assert np.all(velocities >= low - margin)
+    # The commands did act: the base reached its forward and backward limits.
+    assert velocities[:, 0].max() > high[0] - 0.2
+    assert velocities[:, 0].min() < low[0] + 0.2
+
+
+class TestConfigErrors:
+    def test_unknown_behavior(self):
+        with pytest.raises(ValueError, match="unknown behavior 'zigzag'.*circle"):
+            CatchEnv(behavior="zigzag")
+
+    def test_bad_speed(self):
+        with pytest.raises(ConfigError, match="speed_min_mps"):
+            CatchEnv(speed_mps=-1.0)
+
+    def test_speed_and_behavior_applied(self):
+        cfg = CatchEnv(behavior="circle", speed_mps=1.2).world
+        assert cfg.target.behavior == "circle"
+        assert (cfg.target.speed_min_mps, cfg.target.speed_max_mps) == (1.2, 1.2)
+
+    def test_step_before_reset(self):
+        with pytest.raises(RuntimeError, match="reset"):
+            CatchEnv().step(np.zeros(3, np.float32))
+
+    def test_wrong_action_shape(self, env):
+        env.reset(seed=0)
+        with pytest.raises(ValueError, match=r"shape \(3,\)"):
+            env.step(np.zeros(2, np.float32))
+
+    def test_render_mode_refused(self):
+        with pytest.raises(ValueError, match="render_mode"):
+            CatchEnv(render_mode="human")
+
+
+def test_registration_is_idempotent():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        register_envs()
+        register_envs()
+    assert gymnasium.spec(CATCH_ID).max_episode_steps is None
+    venv = gymnasium.make_vec(CATCH_VECTOR_ID, num_envs=3, behavior="bounce")
+    assert isinstance(venv, CatchVectorEnv)
+    assert (venv.num_envs, venv.world.target.behavior) == (3, "bounce")

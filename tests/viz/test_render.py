@@ -1,0 +1,183 @@
+"""Recording, drawing and writing one episode (pursuit vs a slow circle target)."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import imageio.v3 as iio
+import jax
+import numpy as np
+import pytest
+from matplotlib.colors import to_rgb
+
+from dyncatch.cli.render import RenderCmd, resolve, run_render
+from dyncatch.policies.pursuit import pursuit_policy
+from dyncatch.sim.config import WorldCfg
+from dyncatch.viz.render import (
+    FLOOR_COLOR,
+    FOV_SEEN_COLOR,
+    TARGET_COLOR,
+    frame_rows,
+    pixel_of,
+    render_frames,
+    write_video,
+)
+from dyncatch.viz.trajectory import catch_time_s, record_episode
+
+SPEED_MPS = 0.3
+CFG = WorldCfg().with_behavior("circle").with_speed(SPEED_MPS)
+POLICY = pursuit_policy(CFG)
+SIZE_PX = 240
+
+
+def _true_velocity(state, obs):
+    del obs
+    return {"pred_vel_mps": state.target.vel_mps}
+
+
+@pytest.fixture(scope="module")
+def traj() -> dict[str, np.ndarray]:
+    return record_episode(POLICY, jax.random.PRNGKey(0), CFG, extra_fn=_true_velocity)
+
+
+@pytest.fixture(scope="module")
+def frames(traj) -> list[np.ndarray]:
+    return render_frames(traj, CFG, every=10, size_px=SIZE_PX)
+
+
+class TestRecordEpisode:
+    def test_arrays_share_one_length_and_have_their_shapes(self, traj):
+        n = len(traj["time_s"])
+        assert n > 1
+        assert {k: v.shape[0] for k, v in traj.items()} == {k: n for k in traj}
+        assert traj["robot_xy_m"].shape == (n, 2)
+        assert traj["gripper_xyz_m"].shape == (n, 3)
+        assert traj["obs_xy_m"].shape == (n, 2)
+        assert traj["pred_vel_mps"].shape == (n, 2)
+        assert traj["visible"].dtype == bool
+
+    def test_time_starts_at_zero_and_steps_by_dt(self, traj):
+        # Row 0 is the reset state; control runs at 50 Hz.
+        assert traj["time_s"][0] == 0.0
+        np.testing.assert_allclose(np.diff(traj["time_s"]), 0.02, atol=1e-12)
+        np.testing.assert_array_equal(traj["step"], np.arange(len(traj["step"])))
+
+    def test_episode_ends_at_the_first_done(self, traj):
+        assert traj["done"][-1]
+        assert not traj["done"][:-1].any()
+        # A 0.3 m/s target on a fixed circle is caught well before the 20 s limit.
+        assert traj["success"][-1]
+        assert not traj["success"][:-1].any()
+        assert catch_time_s(traj) == pytest.approx(traj["time_s"][-1])
+        assert 0.0 < catch_time_s(traj) < 20.0
+
+    def test_target_moves_on_its_circle_at_its_speed(self, traj):
+        # 0.3 m/s for 0.02 s is 6 mm a step; the circle has a 5 m radius about (8, 8).
+        steps_m = np.linalg.norm(np.diff(traj["target_xy_m"], axis=0), axis=1)
+        np.testing.assert_allclose(steps_m, SPEED_MPS * 0.02, rtol=0.02)
+        radius_m = np.linalg.norm(traj["target_xy_m"] - 8.0, axis=1)
+        np.testing.assert_allclose(radius_m, 5.0, atol=0.05)
+        np.testing.assert_allclose(np.linalg.norm(traj["pred_vel_mps"], axis=1), SPEED_MPS,
+                                   rtol=1e-5)  # fmt: skip
+
+    def test_max_steps_keeps_every_row_of_an_unfinished_episode(self, traj):
+        short = record_episode(POLICY, jax.random.PRNGKey(0), CFG, max_steps=5)
+        assert len(short["time_s"]) == 6
+        assert not short["done"].any()
+        # Same key, same start: the first rows agree with the full episode.
+        np.testing.assert_allclose(short["robot_xy_m"], traj["robot_xy_m"][:6], atol=1e-6)
+
+    def test_extra_fn_may_not_shadow_built_in_keys(self):
+        with pytest.raises(ValueError, match="time_s"):
+            record_episode(POLICY, jax.random.PRNGKey(0), CFG, max_steps=2,
+                           extra_fn=lambda s, o: {"time_s": s.step})  # fmt: skip
+
+
+class TestRenderFrames:
+    def test_frame_rows_keep_the_last_row(self):
+        assert frame_rows(7, 3) == [0, 3, 6]
+        assert frame_rows(8, 3) == [0, 3, 6, 7]
+        with pytest.raises(ValueError):
+            frame_rows(8, 0)
+
+    def test_frames_have_the_requested_size_and_count(self, traj, frames):
+        assert len(frames) == len(frame_rows(len(traj["time_s"]), 10))
+        for frame in frames:
+            assert frame.shape == (SIZE_PX, SIZE_PX, 3)
+            assert frame.dtype == np.uint8
+            assert frame.std() > 10.0
+        assert np.abs(frames[0].astype(int) - frames[-1].astype(int)).sum() > 0
+
+    def test_target_colour_is_drawn_where_the_target_is(self, traj, frames):
+        rgb = np.array(to_rgb(TARGET_COLOR)) * 255
+        # Only inside the arena: the key below it has a target marker too.
+        size = CFG.arena.size_m
+        (left, top), (right, bottom) = pixel_of(np.array([[0.0, size], [size, 0.0]]), CFG, SIZE_PX)
+        for row, frame in zip(frame_rows(len(traj["time_s"]), 10), frames, strict=True):
+            match = np.abs(frame.astype(float) - rgb).max(axis=-1) <= 12
+            match[: int(top)] = match[int(bottom) + 1 :] = False
+            match[:, : int(left)] = match[:, int(right) + 1 :] = False
+            assert match.sum() >= 4, f"no target pixels in the frame of row {row}"
+            rows, cols = np.nonzero(match)
+            expected = pixel_of(traj["target_xy_m"][row], CFG, SIZE_PX)
+            # The fading trail shares the hue but not the exact colour: the solid disc wins.
+            np.testing.assert_allclose([cols.mean(), rows.mean()], expected, atol=3.0)
+
+    def test_cone_is_green_while_the_target_is_seen(self, traj, frames):
+        # The cone is FOV_SEEN_COLOR at alpha 0.16 over the floor while the camera sees it.
+        floor, green = np.array(to_rgb(FLOOR_COLOR)), np.array(to_rgb(FOV_SEEN_COLOR))
+        tint = 255 * (0.84 * floor + 0.16 * green)
+        rows = frame_rows(len(traj["time_s"]), 10)
+        seen = [f for r, f in zip(rows, frames, strict=True) if traj["visible"][r]]
+        assert seen, "the camera never saw the target"
+        for frame in seen:
+            assert (np.abs(frame.astype(float) - tint).max(axis=-1) <= 2).sum() > 100
+
+
+class TestWriteVideo:
+    def test_gif_reads_back_with_every_frame(self, frames, tmp_path):
+        path = write_video(frames, tmp_path / "sub" / "catch.gif", fps=25)
+        assert path == tmp_path / "sub" / "catch.gif"
+        back = iio.imread(path, index=None)
+        assert back.shape[:3] == (len(frames), SIZE_PX, SIZE_PX)
+        # No temporary file is left beside it.
+        assert [p.name for p in path.parent.iterdir()] == ["catch.gif"]
+
+    def test_mp4_is_written(self, frames, tmp_path):
+        import imageio_ffmpeg
+
+        path = write_video(frames[:5], tmp_path / "catch.mp4", fps=10)
+        n_frames, secs = imageio_ffmpeg.count_frames_and_secs(str(path))
+        assert n_frames == 5
+        assert secs == pytest.approx(0.5, abs=0.05)
+
+    def test_other_suffixes_are_refused(self, frames, tmp_path):
+        with pytest.raises(ValueError, match=r"\.gif, \.mp4"):
+            write_video(frames, tmp_path / "catch.avi", fps=25)
+        assert not list(tmp_path.iterdir())
+
+
+class TestRenderCmd:
+    @pytest.mark.parametrize(
+        ("field", "value", "named"),
+        [("policy", "nope", "pursuit"), ("behavior", "nope", "reactive"),
+         ("out", Path("x.avi"), ".gif")],
+    )  # fmt: skip
+    def test_bad_choices_raise_naming_the_choices(self, field, value, named):
+        with pytest.raises(ValueError, match=named):
+            resolve(dataclasses.replace(RenderCmd(), **{field: value}))
+
+    def test_bad_world_is_refused(self):
+        world = WorldCfg().replace(sensor=WorldCfg().sensor.replace(range_m=-1.0))
+        with pytest.raises(ValueError, match="sensor.range_m"):
+            resolve(RenderCmd(world=world))
+
+    def test_run_render_writes_the_gif_and_reports_it(self, tmp_path, capsys):
+        cmd = RenderCmd(behavior="circle", speed_mps=SPEED_MPS, out=tmp_path / "c.gif",
+                        every=5, size_px=128)  # fmt: skip
+        path = run_render(cmd)
+        line = capsys.readouterr().out.strip()
+        n_frames = len(iio.imread(path, index=None))
+        assert line.startswith(f"{path}: {n_frames} frames")
+        assert "caught at" in line
