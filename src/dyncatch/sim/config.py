@@ -119,7 +119,7 @@ class TargetCfg:
     """Height of the target centre above the ground."""
     circle_radius_m: float = 5.0
     """Radius of the circle path (paper: 5 m), centred in the arena."""
-    evade_radius_m: float = 2.5
+    evade_radius_m: float = 3.0
     """r_ev of eq. 12: closer than this, the target dodges sideways."""
     evade_angle_rad: float = math.radians(60.0)
     """alpha of eq. 12: the dodge angle added to the flee direction."""

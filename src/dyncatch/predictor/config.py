@@ -1,0 +1,71 @@
+"""Configs of the behaviour predictor: the network, its training and the data collection."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+from dyncatch.sim.config import WorldCfg
+
+Kind = Literal["vanilla", "self_aware"]
+Frame = Literal["world", "egocentric"]
+
+
+@dataclass(frozen=True)
+class PredictorCfg:
+    """The network: which inputs it sees, in which frame, and its size."""
+
+    kind: Kind = "self_aware"
+    """``vanilla``: target observations and walls only; ``self_aware``: plus the robot's states."""
+    frame: Frame = "egocentric"
+    """``egocentric``: inputs relative to the anchor (robot pose at t for self_aware, target
+    position at t for vanilla) and the output rotated back to the world; ``world``: raw world
+    coordinates. Chosen by measurement, see docs/predictor.md."""
+    hidden: tuple[int, ...] = (128, 128)
+    """Hidden layer widths of the MLP."""
+
+
+@dataclass(frozen=True)
+class TrainCfg:
+    """Supervised training with the L2 loss of eq. 4 (Adam, random minibatches)."""
+
+    updates: int = 3000
+    """Gradient steps, whatever the data budget (so budgets compare data, not compute)."""
+    batch_size: int = 256
+    """Samples per gradient step (drawn with replacement)."""
+    lr: float = 1e-3
+    """Adam learning rate at the start; cosine-decayed to ``lr * final_lr_frac``."""
+    final_lr_frac: float = 0.05
+    """Learning rate at the end, as a fraction of ``lr``."""
+    log_every: int = 100
+    """Gradient steps per logged loss value (and per progress-bar tick)."""
+
+
+@dataclass(frozen=True)
+class CollectCfg:
+    """Robot-target interaction that produces the samples (Section III-B)."""
+
+    pursuit_prob: float = 0.5
+    """Chance that a new plan is pursuit of the target rather than a uniformly random command
+    (pursuit makes reactive targets react)."""
+    replan_prob: float = 0.25
+    """Chance, at each camera frame, that the robot draws a new plan (else it keeps its plan,
+    so its velocity at t says something about its next 0.5 s)."""
+    episode_s: float = 5.0
+    """Length of each interaction episode; short episodes re-place the robot often."""
+    init_distance_min_m: float = 0.5
+    """Closest robot placement around the target."""
+    init_distance_max_m: float = 4.0
+    """Farthest robot placement around the target."""
+
+    def interaction_world(self, world: WorldCfg) -> WorldCfg:
+        """``world`` with this collection's episode length and robot placement."""
+        episode = world.episode.replace(
+            duration_s=self.episode_s,
+            init_distance_min_m=self.init_distance_min_m,
+            init_distance_max_m=self.init_distance_max_m,
+        )
+        return world.replace(episode=episode)
+
+    envs_per_chunk: int = 100
+    """Environments simulated together; each plays one full episode (1000 steps at 20 s)."""
