@@ -69,3 +69,34 @@ class CollectCfg:
 
     envs_per_chunk: int = 100
     """Environments simulated together; each plays one full episode (1000 steps at 20 s)."""
+
+
+def validate(predictor: PredictorCfg, train: TrainCfg, collect: CollectCfg) -> None:
+    """Raise ConfigError naming the first field that cannot work (call at the boundary)."""
+    from dyncatch.predictor.features import FEATURES
+    from dyncatch.sim.validate import ConfigError
+
+    checks = [
+        (predictor.kind in FEATURES, "kind", f"choose one of {', '.join(FEATURES)}"),
+        (
+            predictor.frame in ("world", "egocentric"),
+            "frame",
+            "choose world or egocentric",
+        ),
+        (all(h > 0 for h in predictor.hidden), "hidden", "layer widths must be positive"),
+        (train.updates >= train.log_every > 0, "train.updates", "need updates >= log_every > 0"),
+        (train.batch_size > 0, "train.batch_size", "must be positive"),
+        (train.lr > 0, "train.lr", "must be positive"),
+        (0 <= collect.pursuit_prob <= 1, "collect.pursuit_prob", "must lie in [0, 1]"),
+        (0 <= collect.replan_prob <= 1, "collect.replan_prob", "must lie in [0, 1]"),
+        (collect.episode_s >= 1.0, "collect.episode_s", "use at least 1 s (two camera frames)"),
+        (
+            0 <= collect.init_distance_min_m <= collect.init_distance_max_m,
+            "collect.init_distance_min_m/max_m",
+            "need 0 <= min <= max",
+        ),
+        (collect.envs_per_chunk > 0, "collect.envs_per_chunk", "must be positive"),
+    ]
+    for ok, field, fix in checks:
+        if not ok:
+            raise ConfigError(f"predictor config: {field}: {fix}")

@@ -1,0 +1,134 @@
+"""Save and load a predictor: arrays in safetensors, the config as JSON in the same file's
+header (no pickle), written atomically (temporary file + ``os.replace``).
+
+Loading checks the file's config against the one expected and every array's shape, and
+raises ``CheckpointError`` (a ``ValueError``, so the CLI prints one line) naming what to do.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import tempfile
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from safetensors.numpy import load_file, save_file
+
+from dyncatch.predictor.config import PredictorCfg
+from dyncatch.predictor.model import Predictor
+
+FORMAT = "dyncatch.predictor/1"
+_SEP = "/"
+
+
+class CheckpointError(ValueError):
+    """A checkpoint that cannot be used; the message says why and what to do."""
+
+
+def _flatten(tree: dict, prefix: str = "") -> dict[str, np.ndarray]:
+    flat = {}
+    for name, value in tree.items():
+        key = f"{prefix}{_SEP}{name}" if prefix else name
+        if isinstance(value, dict):
+            flat.update(_flatten(value, key))
+        else:
+            flat[key] = np.asarray(value)
+    return flat
+
+
+def _unflatten(flat: dict[str, np.ndarray]) -> dict:
+    tree: dict = {}
+    for key, value in flat.items():
+        *parents, leaf = key.split(_SEP)
+        node = tree
+        for p in parents:
+            node = node.setdefault(p, {})
+        node[leaf] = jnp.asarray(value)
+    return tree
+
+
+def predictor_to_json(predictor: Predictor) -> dict:
+    return dataclasses.asdict(predictor)
+
+
+def predictor_from_json(d: dict) -> Predictor:
+    cfg = dict(d["cfg"])
+    cfg["hidden"] = tuple(cfg["hidden"])
+    return Predictor(PredictorCfg(**cfg), float(d["arena_size_m"]), float(d["frame_dt_s"]))
+
+
+def save(path: str | os.PathLike, predictor: Predictor, params: dict, info: dict | None = None):
+    """Write ``params`` and ``predictor`` (plus optional JSON-able ``info``) to ``path``."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    meta = {
+        "format": FORMAT,
+        "predictor": json.dumps(predictor_to_json(predictor)),
+        "info": json.dumps(info or {}),
+    }
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    os.close(fd)
+    try:
+        save_file(_flatten(jax.device_get(params)), tmp, metadata=meta)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+
+
+def _read(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
+    if not path.is_file():
+        raise FileNotFoundError(f"no predictor checkpoint at {path}: train one first")
+    try:
+        from safetensors import safe_open
+
+        with safe_open(str(path), framework="numpy") as f:
+            meta = f.metadata() or {}
+        flat = load_file(str(path))
+        if meta.get("format") != FORMAT:
+            raise CheckpointError(f"{path} is not a {FORMAT} checkpoint")
+        return meta, flat
+    except CheckpointError:
+        raise
+    except Exception as err:  # safetensors raises several types on damaged files
+        msg = str(err).splitlines()[0] if str(err) else type(err).__name__
+        raise CheckpointError(f"{path} is corrupt ({msg}): retrain or copy it again") from None
+
+
+def load(path: str | os.PathLike, expected: Predictor | None = None) -> tuple[Predictor, dict]:
+    """(predictor, params) from ``path``; if ``expected`` is given, the file must match it."""
+    path = Path(path)
+    meta, flat = _read(path)
+    try:
+        predictor = predictor_from_json(json.loads(meta["predictor"]))
+    except (KeyError, TypeError, ValueError) as err:
+        raise CheckpointError(f"{path} has an unreadable config ({err}): retrain it") from None
+    if expected is not None and predictor != expected:
+        diff = [
+            f"{k}: file {v!r} vs expected {predictor_to_json(expected)[k]!r}"
+            for k, v in predictor_to_json(predictor).items()
+            if v != predictor_to_json(expected)[k]
+        ]
+        raise CheckpointError(
+            f"{path} does not match the predictor config ({'; '.join(diff)}): "
+            "pass the config it was trained with or retrain"
+        )
+    reference = _flatten(jax.device_get(predictor.init(jax.random.key(0))))
+    if set(reference) != set(flat):
+        missing = sorted(set(reference) ^ set(flat))[:3]
+        raise CheckpointError(f"{path} has the wrong arrays (e.g. {missing}): retrain it")
+    for name, ref in reference.items():
+        if flat[name].shape != ref.shape:
+            raise CheckpointError(
+                f"{path}: array {name} has shape {flat[name].shape}, the config needs "
+                f"{ref.shape}: retrain it"
+            )
+    return predictor, _unflatten(flat)
+
+
+def read_info(path: str | os.PathLike) -> dict:
+    return json.loads(_read(Path(path))[0].get("info", "{}"))

@@ -1,0 +1,149 @@
+"""Table II: prediction error ||v_hat - v||_2 (m/s) per behaviour, kind and data budget.
+
+Each behaviour's training data are collected once at the largest budget; smaller budgets
+train on its prefix (``data.budget_count``). Errors are measured on held-out episodes drawn
+from a different seed. Writing files (Markdown, CSV, PNG) lives at the end, in ``write``.
+"""
+
+from __future__ import annotations
+
+import csv
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import jax
+
+from dyncatch.predictor.config import CollectCfg, PredictorCfg, TrainCfg
+from dyncatch.predictor.data import budget_count, collect
+from dyncatch.predictor.model import Predictor
+from dyncatch.predictor.train import encode_samples, evaluate, fit
+from dyncatch.sim.config import WorldCfg
+
+PAPER_TABLE_II: dict[tuple[str, str], tuple[float, ...]] = {
+    ("circle", "vanilla"): (0.001, 0.0, 0.0, 0.0),
+    ("circle", "self_aware"): (0.002, 0.001, 0.001, 0.0),
+    ("bounce", "vanilla"): (0.048, 0.022, 0.024, 0.022),
+    ("bounce", "self_aware"): (0.027, 0.039, 0.026, 0.022),
+    ("reactive", "vanilla"): (1.251, 1.201, 1.261, 1.197),
+    ("reactive", "self_aware"): (0.398, 0.211, 0.205, 0.128),
+}
+"""The paper's errors (m/s) at its budgets; it reports no random_reactive row."""
+PAPER_BUDGETS = (200_000, 500_000, 1_000_000, 2_000_000)
+
+
+@dataclass(frozen=True)
+class TableCfg:
+    behaviors: tuple[str, ...] = ("circle", "bounce", "reactive", "random_reactive")
+    kinds: tuple[str, ...] = ("vanilla", "self_aware")
+    budgets: tuple[int, ...] = PAPER_BUDGETS
+    eval_steps: int = 500_000
+    seed: int = 0
+
+
+def paper_error(behavior: str, kind: str, budget: int) -> float | None:
+    values = PAPER_TABLE_II.get((behavior, kind))
+    if values is None or budget not in PAPER_BUDGETS:
+        return None
+    return values[PAPER_BUDGETS.index(budget)]
+
+
+def run_table(
+    table: TableCfg,
+    predictor_cfg: PredictorCfg,
+    train_cfg: TrainCfg,
+    collect_cfg: CollectCfg,
+    world: WorldCfg,
+    on_cell: Callable[[dict], None] | None = None,
+) -> list[dict]:
+    """Rows ``{"behavior", "kind", "budget_steps", "error_mps", "paper_error_mps",
+    "train_samples", "eval_samples", "seconds"}``, one per cell."""
+    rows = []
+    key = jax.random.key(table.seed)
+    k_train, k_eval, k_fit = jax.random.split(key, 3)
+    for behavior in table.behaviors:
+        w = world.with_behavior(behavior)
+        train, _ = collect(k_train, w, collect_cfg, max(table.budgets))
+        held_out, _ = collect(k_eval, w, collect_cfg, table.eval_steps)
+        for kind in table.kinds:
+            predictor = Predictor.for_world(
+                PredictorCfg(kind=kind, frame=predictor_cfg.frame, hidden=predictor_cfg.hidden),
+                w,
+            )
+            enc_train = encode_samples(predictor, train)
+            enc_eval = encode_samples(predictor, held_out)
+            for budget in sorted(table.budgets):
+                t0 = time.perf_counter()
+                n = budget_count(train, w, collect_cfg, budget)
+                params, _ = fit(predictor, train_cfg, enc_train, train.label_mps, n, k_fit)
+                error = evaluate(predictor, params, enc_eval, held_out.label_mps)
+                row = {
+                    "behavior": behavior,
+                    "kind": kind,
+                    "budget_steps": budget,
+                    "error_mps": error,
+                    "paper_error_mps": paper_error(behavior, kind, budget),
+                    "train_samples": n,
+                    "eval_samples": len(held_out.label_mps),
+                    "seconds": time.perf_counter() - t0,
+                }
+                rows.append(row)
+                if on_cell is not None:
+                    on_cell(row)
+    return rows
+
+
+def _fmt(x: float | None) -> str:
+    return "-" if x is None else f"{x:.3f}"
+
+
+def markdown(rows: list[dict]) -> str:
+    budgets = sorted({r["budget_steps"] for r in rows})
+    head = " | ".join(f"{b / 1e6:g}M ours (paper)" for b in budgets)
+    lines = [f"| behavior | predictor | {head} |", "|---|---|" + "---:|" * len(budgets)]
+    cells = {(r["behavior"], r["kind"], r["budget_steps"]): r for r in rows}
+    for behavior in dict.fromkeys(r["behavior"] for r in rows):
+        for kind in dict.fromkeys(r["kind"] for r in rows):
+            vals = []
+            for b in budgets:
+                r = cells.get((behavior, kind, b))
+                vals.append(
+                    "" if r is None else f"{r['error_mps']:.3f} ({_fmt(r['paper_error_mps'])})"
+                )
+            lines.append(f"| {behavior} | {kind} | {' | '.join(vals)} |")
+    return "\n".join(lines)
+
+
+def write(rows: list[dict], out: Path, header: str = "") -> list[Path]:
+    """table_ii.md, table_ii.csv and table_ii.png (error vs budget) under ``out``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out.mkdir(parents=True, exist_ok=True)
+    md, csv_path, png = out / "table_ii.md", out / "table_ii.csv", out / "table_ii.png"
+    md.write_text((header + "\n\n" if header else "") + markdown(rows) + "\n")
+    with csv_path.open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for behavior in dict.fromkeys(r["behavior"] for r in rows):
+        for kind, style in (("vanilla", "--"), ("self_aware", "-")):
+            sel = [r for r in rows if r["behavior"] == behavior and r["kind"] == kind]
+            if sel:
+                xs = [r["budget_steps"] / 1e6 for r in sel]
+                ax.plot(
+                    xs, [r["error_mps"] for r in sel], style, marker="o", label=f"{behavior} {kind}"
+                )
+    ax.set_xlabel("interaction steps (M)")
+    ax.set_ylabel("error ||v_hat - v||_2 (m/s)")
+    ax.set_yscale("log")
+    ax.legend(fontsize=7, ncol=2)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(png, dpi=120)
+    plt.close(fig)
+    return [md, csv_path, png]

@@ -1,0 +1,1 @@
+"""PPO for the high-level catching policy: pure functions, the whole update in one jit."""

@@ -1,0 +1,71 @@
+"""PPO hyper-parameters and batch geometry."""
+
+from __future__ import annotations
+
+from flax import struct
+
+
+def static(default):
+    return struct.field(pytree_node=False, default=default)
+
+
+@struct.dataclass
+class PPOCfg:
+    num_envs: int = static(512)
+    """Parallel environments per rollout."""
+    num_steps: int = static(32)
+    """Control steps per environment per rollout (the batch is num_envs * num_steps)."""
+    num_minibatches: int = static(4)
+    """Minibatches per epoch; must divide the batch."""
+    update_epochs: int = static(4)
+    """Passes over each rollout."""
+    hidden_sizes: tuple[int, ...] = static((256, 256, 128))
+    """Hidden layers of the actor and of the critic (ELU)."""
+    gamma: float = 0.99
+    """Discount per control step (0.02 s)."""
+    gae_lambda: float = 0.95
+    """GAE lambda."""
+    clip_eps: float = 0.2
+    """PPO ratio clip."""
+    value_clip_eps: float = 0.2
+    """Clip of the value update around the old prediction."""
+    vf_coef: float = 1.0
+    """Weight of the value loss."""
+    ent_coef: float = 0.005
+    """Weight of the entropy bonus."""
+    max_grad_norm: float = 1.0
+    """Global gradient-norm clip."""
+    learning_rate: float = 1e-3
+    """Initial Adam learning rate (then adapted by the KL rule)."""
+    desired_kl: float = 0.01
+    """Adaptive learning rate: halve it above 2x this KL, grow it 1.5x below half of it."""
+    min_lr: float = 1e-5
+    """Lower bound of the adaptive learning rate."""
+    max_lr: float = 1e-2
+    """Upper bound of the adaptive learning rate."""
+    init_log_std: float = 0.0
+    """Initial log standard deviation of the Gaussian head (actions are normalised to [-1, 1])."""
+
+    @property
+    def batch_size(self) -> int:
+        return self.num_envs * self.num_steps
+
+    @property
+    def minibatch_size(self) -> int:
+        return self.batch_size // self.num_minibatches
+
+
+def validate_ppo(cfg: PPOCfg) -> PPOCfg:
+    """Raise ValueError naming the field when the batch geometry or a coefficient cannot work."""
+    if cfg.num_envs < 1 or cfg.num_steps < 1 or cfg.update_epochs < 1:
+        raise ValueError("ppo.num_envs, ppo.num_steps and ppo.update_epochs must be >= 1")
+    if cfg.num_minibatches < 1 or cfg.batch_size % cfg.num_minibatches:
+        raise ValueError(
+            f"ppo.num_minibatches={cfg.num_minibatches} must divide the batch "
+            f"num_envs * num_steps = {cfg.batch_size}; pick a divisor of it"
+        )
+    if not 0 < cfg.gamma <= 1 or not 0 <= cfg.gae_lambda <= 1:
+        raise ValueError("ppo.gamma must lie in (0, 1] and ppo.gae_lambda in [0, 1]")
+    if cfg.learning_rate <= 0 or cfg.min_lr <= 0 or cfg.min_lr > cfg.max_lr:
+        raise ValueError("ppo.learning_rate, min_lr, max_lr must be positive with min <= max")
+    return cfg

@@ -1,0 +1,210 @@
+"""``make_train(world, ppo)`` -> pure ``init(key)`` and ``iterate(state)``, each one jit.
+
+One iteration = a ``lax.scan`` rollout of ``num_steps`` over ``num_envs`` auto-resetting
+environments, GAE with time-out bootstrapping, then ``update_epochs`` x ``num_minibatches``
+Adam steps with an adaptive-KL learning rate, all inside a single compiled function. The
+state is a pytree, so a run can be ``vmap``-ed over seeds.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import optax
+from flax import struct
+
+from dyncatch.rl.config import PPOCfg
+from dyncatch.rl.gae import bootstrap_timeouts, gae
+from dyncatch.rl.loss import ppo_loss
+from dyncatch.rl.networks import ActorCritic, gaussian_kl, gaussian_log_prob
+from dyncatch.rl.normalize import RunningNorm
+from dyncatch.sim.base import command_high, command_low
+from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.state import EnvState, Obs
+from dyncatch.sim.vec import batch_observe, batch_reset, batch_step
+
+ObsFn = Callable[[EnvState, Obs], jax.Array]
+"""(state, obs) of one environment -> the policy's input vector (D,)."""
+
+
+def flat_obs(state: EnvState, obs: Obs) -> jax.Array:
+    """The monolithic policy's input: the observation as it is."""
+    del state
+    return obs.flat
+
+
+@struct.dataclass
+class TrainState:
+    params: dict
+    opt_state: optax.OptState
+    norm: RunningNorm
+    env_state: EnvState
+    obs: Obs
+    key: jax.Array
+    learning_rate: jax.Array
+    iteration: jax.Array
+    env_steps: jax.Array
+
+
+class Transition(NamedTuple):
+    obs: jax.Array
+    actions: jax.Array
+    log_probs: jax.Array
+    values: jax.Array
+    rewards: jax.Array
+    dones: jax.Array
+    truncated: jax.Array
+    final_obs: jax.Array
+    success: jax.Array
+    episode_steps: jax.Array
+
+
+def to_command(action: jax.Array, world: WorldCfg) -> jax.Array:
+    """Map a normalised action in [-1, 1]^3 (clipped) to the base command (vx, vy, yaw rate)."""
+    lo, hi = command_low(world.base), command_high(world.base)
+    return lo + (jnp.clip(action, -1.0, 1.0) + 1.0) * 0.5 * (hi - lo)
+
+
+def make_train(world: WorldCfg, ppo: PPOCfg, obs_fn: ObsFn = flat_obs):
+    """Build the pure ``init(key) -> TrainState`` and ``iterate(TrainState) -> (TrainState,
+    metrics)`` for one method (``obs_fn`` decides what the policy sees)."""
+    net = ActorCritic(3, ppo.hidden_sizes, ppo.init_log_std)
+    vobs = jax.vmap(obs_fn)
+    optimizer = optax.chain(
+        optax.clip_by_global_norm(ppo.max_grad_norm),
+        optax.inject_hyperparams(optax.adam)(learning_rate=ppo.learning_rate),
+    )
+
+    def init(key: jax.Array) -> TrainState:
+        k_net, k_env, k_next = jax.random.split(key, 3)
+        env_state = batch_reset(k_env, world, ppo.num_envs)
+        obs = batch_observe(env_state, world)
+        x = vobs(env_state, obs)
+        params = net.init(k_net, x[:1])
+        return TrainState(
+            params=params,
+            opt_state=optimizer.init(params),
+            norm=RunningNorm.create(x.shape[-1]),
+            env_state=env_state,
+            obs=obs,
+            key=k_next,
+            learning_rate=jnp.asarray(ppo.learning_rate, jnp.float32),
+            iteration=jnp.zeros((), jnp.int32),
+            env_steps=jnp.zeros((), jnp.int32),
+        )
+
+    def rollout(ts: TrainState):
+        def step(carry, key):
+            env_state, obs = carry
+            x = vobs(env_state, obs)
+            mean, log_std, value = net.apply(ts.params, ts.norm(x))
+            action = mean + jnp.exp(log_std) * jax.random.normal(key, mean.shape)
+            log_prob = gaussian_log_prob(action, mean, log_std)
+            next_state, next_obs, reward, done, info = batch_step(
+                env_state, to_command(action, world), world
+            )
+            tr = Transition(
+                obs=x,
+                actions=action,
+                log_probs=log_prob,
+                values=value,
+                rewards=reward,
+                dones=done,
+                truncated=info["truncated"],
+                # The input the policy would have seen at the end of a finished episode.
+                final_obs=vobs(next_state, info["final_obs"]),
+                success=info["success"],
+                episode_steps=env_state.step + 1,
+            )
+            return (next_state, next_obs), tr
+
+        key, k_roll = jax.random.split(ts.key)
+        (env_state, obs), traj = jax.lax.scan(
+            step, (ts.env_state, ts.obs), jax.random.split(k_roll, ppo.num_steps)
+        )
+        return ts.replace(env_state=env_state, obs=obs, key=key), traj
+
+    def update(ts: TrainState, batch: dict[str, jax.Array]):
+        def minibatch_step(carry, mb):
+            params, opt_state, lr = carry
+
+            def loss_fn(p):
+                mean, log_std, value = net.apply(p, mb["obs"])
+                loss, metrics = ppo_loss(
+                    mean, log_std, value, mb, ppo.clip_eps, ppo.value_clip_eps, ppo.vf_coef,
+                    ppo.ent_coef,
+                )
+                kl = gaussian_kl(mb["means"], mb["log_stds"], mean, log_std).mean()
+                return loss, {**metrics, "kl": kl}
+
+            grads, metrics = jax.grad(loss_fn, has_aux=True)(params)
+            kl = metrics["kl"]
+            lr = jnp.where(kl > 2 * ppo.desired_kl, lr / 1.5, lr)
+            lr = jnp.where(kl < 0.5 * ppo.desired_kl, lr * 1.5, lr)
+            lr = jnp.clip(lr, ppo.min_lr, ppo.max_lr)
+            opt_state[1].hyperparams["learning_rate"] = lr
+            updates, opt_state = optimizer.update(grads, opt_state, params)
+            return (optax.apply_updates(params, updates), opt_state, lr), metrics
+
+        def epoch(carry, key):
+            perm = jax.random.permutation(key, ppo.batch_size)
+            shuffled = jax.tree.map(
+                lambda x: x[perm].reshape(ppo.num_minibatches, ppo.minibatch_size, *x.shape[1:]),
+                batch,
+            )
+            return jax.lax.scan(minibatch_step, carry, shuffled)
+
+        key, k_epochs = jax.random.split(ts.key)
+        (params, opt_state, lr), metrics = jax.lax.scan(
+            epoch,
+            (ts.params, ts.opt_state, ts.learning_rate),
+            jax.random.split(k_epochs, ppo.update_epochs),
+        )
+        ts = ts.replace(params=params, opt_state=opt_state, learning_rate=lr, key=key)
+        return ts, jax.tree.map(jnp.mean, metrics)
+
+    def iterate(ts: TrainState):
+        ts, traj = rollout(ts)
+        flat = lambda x: x.reshape(ppo.batch_size, *x.shape[2:])  # noqa: E731
+        norm_obs = ts.norm(traj.obs)
+        _, _, final_values = net.apply(ts.params, ts.norm(traj.final_obs))
+        _, _, last_value = net.apply(ts.params, ts.norm(vobs(ts.env_state, ts.obs)))
+        rewards = bootstrap_timeouts(traj.rewards, traj.truncated, final_values, ppo.gamma)
+        adv, returns = gae(rewards, traj.values, traj.dones, last_value, ppo.gamma, ppo.gae_lambda)
+        means, log_stds, _ = net.apply(ts.params, norm_obs)
+        batch = {
+            "obs": flat(norm_obs),
+            "actions": flat(traj.actions),
+            "log_probs": flat(traj.log_probs),
+            "values": flat(traj.values),
+            "advantages": flat(adv),
+            "returns": flat(returns),
+            "means": flat(means),
+            "log_stds": jnp.broadcast_to(log_stds, means.shape).reshape(ppo.batch_size, -1),
+        }
+        ts, metrics = update(ts, batch)
+        ts = ts.replace(
+            norm=ts.norm.update(traj.obs),
+            iteration=ts.iteration + 1,
+            env_steps=ts.env_steps + ppo.batch_size,
+        )
+        done = traj.dones.astype(jnp.float32)
+        episodes = done.sum()
+        metrics.update(
+            {
+                "episodes": episodes,
+                "success_rate": (traj.success * done).sum() / jnp.maximum(episodes, 1),
+                "episode_length_s": (traj.episode_steps * done).sum()
+                / jnp.maximum(episodes, 1)
+                * world.episode.dt_s,
+                "reward_per_step": traj.rewards.mean(),
+                "learning_rate": ts.learning_rate,
+                "action_std": jnp.exp(ts.params["params"]["log_std"]).mean(),
+            }
+        )
+        return ts, metrics
+
+    return init, iterate, net
