@@ -12,6 +12,12 @@ from typing import Any
 
 from dyncatch.cli.bench import EnvBenchCmd, run_env_bench
 from dyncatch.cli.demo import DemoCmd, run_demo
+from dyncatch.cli.predictor import (
+    PredictorTableCmd,
+    PredictorTrainCmd,
+    run_predictor_table,
+    run_predictor_train,
+)
 from dyncatch.cli.render import RenderCmd, run_render
 
 
@@ -31,4 +37,11 @@ COMMANDS: dict[str, Command | Group] = {
     "demo": Command(DemoCmd, run_demo),
     "render": Command(RenderCmd, run_render),
     "bench": Group("Throughput benchmarks.", {"env": Command(EnvBenchCmd, run_env_bench)}),
+    "predictor": Group(
+        "The target-behaviour predictor (Section III-B, Table II).",
+        {
+            "train": Command(PredictorTrainCmd, run_predictor_train),
+            "table": Command(PredictorTableCmd, run_predictor_table),
+        },
+    ),
 }

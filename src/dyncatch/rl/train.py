@@ -134,7 +134,13 @@ def make_train(world: WorldCfg, ppo: PPOCfg, obs_fn: ObsFn = flat_obs):
             def loss_fn(p):
                 mean, log_std, value = net.apply(p, mb["obs"])
                 loss, metrics = ppo_loss(
-                    mean, log_std, value, mb, ppo.clip_eps, ppo.value_clip_eps, ppo.vf_coef,
+                    mean,
+                    log_std,
+                    value,
+                    mb,
+                    ppo.clip_eps,
+                    ppo.value_clip_eps,
+                    ppo.vf_coef,
                     ppo.ent_coef,
                 )
                 kl = gaussian_kl(mb["means"], mb["log_stds"], mean, log_std).mean()
