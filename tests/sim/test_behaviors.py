@@ -77,12 +77,15 @@ def test_bounce_mirrors_off_a_wall_and_keeps_its_speed():
 
 def test_reactive_flees_a_still_robot():
     cfg = CFG.with_behavior("reactive").with_speed(1.0)
-    s = _start(cfg, robot_xy=(8.0, 8.0), robot_yaw=0.0, target_xy=(11.0, 8.0), heading=math.pi)
+    start = cfg.target.evade_radius_m + 1.0  # beyond r_ev: pure flight, no dodge
+    s = _start(
+        cfg, robot_xy=(4.0, 8.0), robot_yaw=0.0, target_xy=(4.0 + start, 8.0), heading=math.pi
+    )
     states, _, infos = fixed_rollout(s, STILL, cfg, 100)
     # It turns around (at 10 rad/s, within a third of a second) and runs off along +x,
     # wobbling by gamma ~ U(-22.5, 22.5) deg: x advances by at least cos(22.5 deg) per metre.
-    assert float(infos["distance_m"][-1]) > 3.0 + 1.4
-    assert float(states.target.xy_m[-1, 0]) > 11.0 + 1.4
+    assert float(infos["distance_m"][-1]) > start + 1.4
+    assert float(states.target.xy_m[-1, 0]) > 4.0 + start + 1.4
 
 
 def test_reactive_dodges_to_its_own_side_when_the_robot_is_close():
