@@ -28,7 +28,9 @@ def main(episodes: int) -> None:
             cfg = world.with_behavior(behavior).with_speed(speed)
             s = summarize(run_episodes(policy, jax.random.key(2024), cfg, episodes))
             lo, hi = s["success_ci95"]
-            cells.append(f"{s['success_rate']:.3f} [{lo:.2f}, {hi:.2f}] / {s['catch_time_s']:.1f} s")
+            cells.append(
+                f"{s['success_rate']:.3f} [{lo:.2f}, {hi:.2f}] / {s['catch_time_s']:.1f} s"
+            )
         print(f"| {behavior} | " + " | ".join(cells) + " |", flush=True)
 
 

@@ -18,7 +18,9 @@ FIELDS = [
 ]
 
 
-@pytest.mark.parametrize(("group", "name", "default"), FIELDS, ids=[f"{g}.{n}" for g, n, _ in FIELDS])
+@pytest.mark.parametrize(
+    ("group", "name", "default"), FIELDS, ids=[f"{g}.{n}" for g, n, _ in FIELDS]
+)
 def test_every_constant_has_a_row_with_its_default(group, name, default):
     rows = [line for line in DOC.splitlines() if line.startswith("|") and f"`{name}`" in line]
     assert rows, f"docs/model.md has no table row for {group}.{name}"
@@ -32,5 +34,6 @@ def test_every_constant_has_a_row_with_its_default(group, name, default):
         numbers = [float(x) for x in re.findall(r"-?\d+(?:\.\d+)?", cells)]
         # Angles are written in degrees in the doc.
         candidates = {float(default), round(math.degrees(default), 1)}
-        assert any(math.isclose(c, x, rel_tol=1e-3, abs_tol=1e-9) for c in candidates
-                   for x in numbers), f"{group}.{name} = {default} not in: {cells}"
+        assert any(
+            math.isclose(c, x, rel_tol=1e-3, abs_tol=1e-9) for c in candidates for x in numbers
+        ), f"{group}.{name} = {default} not in: {cells}"
