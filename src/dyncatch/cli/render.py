@@ -6,14 +6,15 @@ import dataclasses
 from collections.abc import Callable
 from pathlib import Path
 
-from dyncatch.policies.pursuit import pursuit_policy
+from dyncatch.policies.registry import BASELINES
 from dyncatch.sim.behaviors import BEHAVIORS
 from dyncatch.sim.config import WorldCfg
 
 PolicyFactory = Callable[[WorldCfg], Callable]
 
-POLICIES: dict[str, PolicyFactory] = {"pursuit": pursuit_policy}
-"""Policy name -> ``factory(world) -> policy(obs, key) -> action``; later layers add theirs."""
+POLICIES: dict[str, PolicyFactory] = dict(BASELINES)
+"""Policy name -> ``factory(world) -> policy`` (see dyncatch.policies.api); later layers add
+theirs."""
 
 
 @dataclasses.dataclass(frozen=True)

@@ -12,6 +12,7 @@ from functools import partial
 import jax
 import jax.numpy as jnp
 
+from dyncatch.policies.api import as_recurrent
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.env import observe, reset, step
 
@@ -22,36 +23,32 @@ def _run(policy: Callable, key: jax.Array, cfg: WorldCfg, num_episodes: int, num
     state = jax.vmap(reset, in_axes=(0, None))(jax.random.split(k_reset, num_episodes), cfg)
     obs = jax.vmap(observe, in_axes=(0, None))(state, cfg)
     vstep = jax.vmap(step, in_axes=(0, 0, None))
-    vpolicy = jax.vmap(policy)
+    pol = as_recurrent(policy)
+    vpolicy = jax.vmap(pol.step)
 
     def body(carry, t):
-        state, obs, done, success, steps, ret = carry
+        state, obs, pcarry, done, success, steps, ret = carry
         keys = jax.random.split(jax.random.fold_in(k_act, t), num_episodes)
-        action = vpolicy(obs, keys)
+        pcarry, action = vpolicy(pcarry, state, obs, keys)
         state, obs, reward, now_done, info = vstep(state, action, cfg)
         live = ~done
         success = success | (live & info["success"])
         steps = steps + live.astype(jnp.int32)
         ret = ret + jnp.where(live, reward, 0.0)
-        return (state, obs, done | now_done, success, steps, ret), None
+        return (state, obs, pcarry, done | now_done, success, steps, ret), None
 
     zeros_b = jnp.zeros(num_episodes, bool)
-    init = (
-        state,
-        obs,
-        zeros_b,
-        zeros_b,
-        jnp.zeros(num_episodes, jnp.int32),
-        jnp.zeros(num_episodes),
-    )
-    (_, _, _, success, steps, ret), _ = jax.lax.scan(body, init, jnp.arange(num_steps))
+    pcarry = jax.vmap(pol.init_carry)(state, obs)
+    ints, floats = jnp.zeros(num_episodes, jnp.int32), jnp.zeros(num_episodes)
+    init = (state, obs, pcarry, zeros_b, zeros_b, ints, floats)
+    (_, _, _, _, success, steps, ret), _ = jax.lax.scan(body, init, jnp.arange(num_steps))
     return success, steps, ret
 
 
 def run_episodes(
     policy: Callable, key: jax.Array, cfg: WorldCfg, num_episodes: int
 ) -> dict[str, jax.Array]:
-    """Play ``num_episodes`` episodes of ``policy(obs, key) -> action``.
+    """Play ``num_episodes`` episodes of a policy (see ``dyncatch.policies.api``).
 
     Returns ``success`` (N,) bool, ``catch_time_s`` (N,) (the episode limit on failure, as
     in the paper) and ``return`` (N,).

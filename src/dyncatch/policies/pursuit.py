@@ -27,11 +27,12 @@ class PursuitCfg:
     """Standing this close to a sighting that is not fresh, the pursuer searches."""
 
 
-def pursuit_action(obs: Obs, world: WorldCfg, cfg: PursuitCfg) -> jax.Array:
-    """Base command (3,) toward the held sighting."""
-    rel = obs.target_obs_body_m
-    dist = jnp.linalg.norm(rel)
-    bearing_rad = jnp.arctan2(rel[1], rel[0])
+def drive_toward(
+    rel_body_m: jax.Array, searching: jax.Array, world: WorldCfg, cfg: PursuitCfg
+) -> jax.Array:
+    """Command (3,) running at full speed toward a point given in the base frame (2,),
+    turning to face it; or spinning in place where ``searching``."""
+    bearing_rad = jnp.arctan2(rel_body_m[1], rel_body_m[0])
     base = world.base
     yaw_rate = jnp.clip(
         cfg.yaw_gain_per_s * bearing_rad, -base.max_yaw_rate_rps, base.max_yaw_rate_rps
@@ -41,8 +42,14 @@ def pursuit_action(obs: Obs, world: WorldCfg, cfg: PursuitCfg) -> jax.Array:
     vy = jnp.clip(speed * jnp.sin(bearing_rad), -base.max_lateral_mps, base.max_lateral_mps)
     chase = jnp.stack([vx, vy, yaw_rate])
     search = jnp.stack([0.0, 0.0, cfg.search_yaw_rate_rps])
-    searching = (dist < cfg.arrive_radius_m) & (obs.visible < 0.5)
     return jnp.where(searching, search, chase)
+
+
+def pursuit_action(obs: Obs, world: WorldCfg, cfg: PursuitCfg) -> jax.Array:
+    """Base command (3,) toward the held sighting; search once standing on a stale one."""
+    rel = obs.target_obs_body_m
+    searching = (jnp.linalg.norm(rel) < cfg.arrive_radius_m) & (obs.visible < 0.5)
+    return drive_toward(rel, searching, world, cfg)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -14,6 +14,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from dyncatch.policies.api import as_recurrent
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.env import observe, reset, step
 from dyncatch.sim.state import EnvState, Obs
@@ -71,14 +72,16 @@ def _rollout(
     state = reset(k_reset, cfg)
     obs = observe(state, cfg)
     first = _snapshot(state, jnp.zeros((), bool), cfg, extra_fn, obs)
+    pol = as_recurrent(policy)
 
     def body(carry, t):
-        state, obs = carry
-        action = policy(obs, jax.random.fold_in(k_act, t))
+        state, obs, pcarry = carry
+        pcarry, action = pol.step(pcarry, state, obs, jax.random.fold_in(k_act, t))
         state, obs, _, done, _ = step(state, action, cfg)
-        return (state, obs), _snapshot(state, done, cfg, extra_fn, obs)
+        return (state, obs, pcarry), _snapshot(state, done, cfg, extra_fn, obs)
 
-    _, rows = jax.lax.scan(body, (state, obs), jnp.arange(num_steps))
+    init = (state, obs, pol.init_carry(state, obs))
+    _, rows = jax.lax.scan(body, init, jnp.arange(num_steps))
     return jax.tree.map(lambda a, b: jnp.concatenate([a[None], b]), first, rows)
 
 
