@@ -11,16 +11,28 @@ def test_two_steps_worked_by_hand():
     # gamma = 0.5, lambda = 0.5, one env, no episode end:
     # delta1 = 1 + 0.5*4 - 3 = 0;   A1 = 0
     # delta0 = 1 + 0.5*3 - 2 = 0.5; A0 = 0.5 + 0.25*0 = 0.5
-    adv, ret = gae(jnp.array([[1.0], [1.0]]), jnp.array([[2.0], [3.0]]),
-                   jnp.array([[False], [False]]), jnp.array([4.0]), 0.5, 0.5)
+    adv, ret = gae(
+        jnp.array([[1.0], [1.0]]),
+        jnp.array([[2.0], [3.0]]),
+        jnp.array([[False], [False]]),
+        jnp.array([4.0]),
+        0.5,
+        0.5,
+    )
     np.testing.assert_allclose(adv[:, 0], [0.5, 0.0], atol=1e-6)
     np.testing.assert_allclose(ret[:, 0], [2.5, 3.0], atol=1e-6)
 
 
 def test_episode_end_cuts_the_chain():
     # done at step 0: delta0 = 1 - 2 = -1 and A0 ignores step 1 entirely.
-    adv, _ = gae(jnp.array([[1.0], [1.0]]), jnp.array([[2.0], [3.0]]),
-                 jnp.array([[True], [False]]), jnp.array([4.0]), 0.5, 0.5)
+    adv, _ = gae(
+        jnp.array([[1.0], [1.0]]),
+        jnp.array([[2.0], [3.0]]),
+        jnp.array([[True], [False]]),
+        jnp.array([4.0]),
+        0.5,
+        0.5,
+    )
     np.testing.assert_allclose(adv[:, 0], [-1.0, 0.0], atol=1e-6)
 
 

@@ -12,6 +12,7 @@ from typing import Any
 
 from dyncatch.cli.bench import EnvBenchCmd, run_env_bench
 from dyncatch.cli.demo import DemoCmd, run_demo
+from dyncatch.cli.eval import EvalCmd, run_eval
 from dyncatch.cli.predictor import (
     PredictorTableCmd,
     PredictorTrainCmd,
@@ -36,6 +37,7 @@ class Group:
 COMMANDS: dict[str, Command | Group] = {
     "demo": Command(DemoCmd, run_demo),
     "render": Command(RenderCmd, run_render),
+    "eval": Command(EvalCmd, run_eval),
     "bench": Group("Throughput benchmarks.", {"env": Command(EnvBenchCmd, run_env_bench)}),
     "predictor": Group(
         "The target-behaviour predictor (Section III-B, Table II).",

@@ -8,7 +8,7 @@ from typing import Literal
 from dyncatch.sim.config import WorldCfg
 
 Kind = Literal["vanilla", "self_aware"]
-Frame = Literal["world", "egocentric"]
+Frame = Literal["world", "relative", "egocentric"]
 
 
 @dataclass(frozen=True)
@@ -18,10 +18,11 @@ class PredictorCfg:
     kind: Kind = "self_aware"
     """``vanilla``: target observations and walls only; ``self_aware``: plus the robot's states."""
     frame: Frame = "egocentric"
-    """``egocentric``: inputs relative to the anchor (robot pose at t for self_aware, target
-    position at t for vanilla) and the output rotated back to the world; ``world``: raw world
-    coordinates. Chosen by measurement, see docs/predictor.md."""
-    hidden: tuple[int, ...] = (128, 128)
+    """``world``: absolute world coordinates; ``relative``: world axes, robot quantities taken
+    relative to the target; ``egocentric``: everything in the robot's frame at t (vanilla: the
+    target's displacement and walls), the output rotated back to the world. Chosen by
+    measurement, see docs/predictor.md."""
+    hidden: tuple[int, ...] = (128, 128, 128)
     """Hidden layer widths of the MLP."""
 
 
@@ -29,7 +30,9 @@ class PredictorCfg:
 class TrainCfg:
     """Supervised training with the L2 loss of eq. 4 (Adam, random minibatches)."""
 
-    updates: int = 3000
+    loss: Literal["norm", "squared"] = "norm"
+    """Eq. 4 as written, ||v - v_hat||_2 (``norm``), or its square (``squared``, MSE)."""
+    updates: int = 6000
     """Gradient steps, whatever the data budget (so budgets compare data, not compute)."""
     batch_size: int = 256
     """Samples per gradient step (drawn with replacement)."""
@@ -48,14 +51,14 @@ class CollectCfg:
     pursuit_prob: float = 0.5
     """Chance that a new plan is pursuit of the target rather than a uniformly random command
     (pursuit makes reactive targets react)."""
-    replan_prob: float = 0.25
+    replan_prob: float = 0.1
     """Chance, at each camera frame, that the robot draws a new plan (else it keeps its plan,
     so its velocity at t says something about its next 0.5 s)."""
-    episode_s: float = 5.0
+    episode_s: float = 2.5
     """Length of each interaction episode; short episodes re-place the robot often."""
     init_distance_min_m: float = 0.5
     """Closest robot placement around the target."""
-    init_distance_max_m: float = 4.0
+    init_distance_max_m: float = 2.5
     """Farthest robot placement around the target."""
 
     def interaction_world(self, world: WorldCfg) -> WorldCfg:
@@ -79,9 +82,9 @@ def validate(predictor: PredictorCfg, train: TrainCfg, collect: CollectCfg) -> N
     checks = [
         (predictor.kind in FEATURES, "kind", f"choose one of {', '.join(FEATURES)}"),
         (
-            predictor.frame in ("world", "egocentric"),
+            predictor.frame in FEATURES.get(predictor.kind, {}),
             "frame",
-            "choose world or egocentric",
+            "choose world, relative or egocentric",
         ),
         (all(h > 0 for h in predictor.hidden), "hidden", "layer widths must be positive"),
         (train.updates >= train.log_every > 0, "train.updates", "need updates >= log_every > 0"),

@@ -126,9 +126,39 @@ def self_aware_egocentric(h: History, size_m: float, dt_s: float) -> tuple[jax.A
     return x, yaw
 
 
+def self_aware_relative(h: History, size_m: float, dt_s: float) -> tuple[jax.Array, jax.Array]:
+    """World axes, robot quantities relative to the target: eq. 12 reads atan2(d) off them."""
+    x, yaw_out = vanilla_world(h, size_m, dt_s)
+    xy, yaw = h.robot_pose[:2], h.robot_pose[2]
+    d = h.target_xy_m - xy
+    dist = jnp.sqrt(jnp.sum(d * d) + 1e-12)
+    prev_yaw = h.prev_robot_pose[2]
+    robot = jnp.concatenate(
+        [
+            d / size_m,
+            d / dist,
+            dist[None] / size_m,
+            (h.prev_target_xy_m - h.prev_robot_pose[:2]) / size_m,
+            jnp.stack([jnp.cos(yaw), jnp.sin(yaw), jnp.cos(prev_yaw), jnp.sin(prev_yaw)]),
+            rotate(h.robot_vel_body_mps, yaw),
+            h.robot_yaw_rate_rps[None],
+            _walls(xy, size_m),
+        ]
+    )
+    return jnp.concatenate([x, robot]), yaw_out
+
+
 FEATURES: dict[str, dict[str, Encoder]] = {
-    "vanilla": {"world": vanilla_world, "egocentric": vanilla_egocentric},
-    "self_aware": {"world": self_aware_world, "egocentric": self_aware_egocentric},
+    "vanilla": {
+        "world": vanilla_world,
+        "egocentric": vanilla_egocentric,
+        "relative": vanilla_world,
+    },
+    "self_aware": {
+        "world": self_aware_world,
+        "egocentric": self_aware_egocentric,
+        "relative": self_aware_relative,
+    },
 }
 """kind -> frame -> encoder."""
 

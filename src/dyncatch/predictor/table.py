@@ -35,11 +35,18 @@ PAPER_BUDGETS = (200_000, 500_000, 1_000_000, 2_000_000)
 
 @dataclass(frozen=True)
 class TableCfg:
+    """The grid of Table II."""
+
     behaviors: tuple[str, ...] = ("circle", "bounce", "reactive", "random_reactive")
+    """Rows: target behaviours."""
     kinds: tuple[str, ...] = ("vanilla", "self_aware")
+    """Predictor kinds per behaviour."""
     budgets: tuple[int, ...] = PAPER_BUDGETS
+    """Columns: interaction budgets in simulator steps."""
     eval_steps: int = 500_000
+    """Interaction steps of held-out episodes per behaviour."""
     seed: int = 0
+    """Seed of collection, held-out episodes (another stream) and initialisation."""
 
 
 def paper_error(behavior: str, kind: str, budget: int) -> float | None:
@@ -135,9 +142,15 @@ def write(rows: list[dict], out: Path, header: str = "") -> list[Path]:
             sel = [r for r in rows if r["behavior"] == behavior and r["kind"] == kind]
             if sel:
                 xs = [r["budget_steps"] / 1e6 for r in sel]
-                ax.plot(
+                (line,) = ax.plot(
                     xs, [r["error_mps"] for r in sel], style, marker="o", label=f"{behavior} {kind}"
                 )
+                # The paper's values as crosses of the same colour (zeros cannot go on a log axis).
+                paper = [(x, r["paper_error_mps"]) for x, r in zip(xs, sel, strict=True)]
+                paper = [(x, e) for x, e in paper if e]
+                if paper:
+                    ax.plot(*zip(*paper, strict=True), "x", color=line.get_color(), ms=8)
+    ax.set_title("Table II: ours (lines), paper (crosses)", fontsize=9)
     ax.set_xlabel("interaction steps (M)")
     ax.set_ylabel("error ||v_hat - v||_2 (m/s)")
     ax.set_yscale("log")

@@ -33,6 +33,15 @@ def l2_error(v_hat: jax.Array, v: jax.Array) -> jax.Array:
     return jnp.sqrt(jnp.sum((v - v_hat) ** 2, axis=-1) + _EPS_M2PS2)
 
 
+def squared_error(v_hat: jax.Array, v: jax.Array) -> jax.Array:
+    """||v - v_hat||_2^2 per sample, (N,) (m/s)^2."""
+    return jnp.sum((v - v_hat) ** 2, axis=-1)
+
+
+LOSSES = {"norm": l2_error, "squared": squared_error}
+"""Per-sample training losses by name; the reported error is always ``l2_error``."""
+
+
 def _optimizer(cfg: TrainCfg) -> optax.GradientTransformation:
     lr = optax.cosine_decay_schedule(cfg.lr, cfg.updates, alpha=cfg.final_lr_frac)
     return optax.adam(lr)
@@ -45,7 +54,7 @@ def _train_chunk(predictor: Predictor, cfg: TrainCfg, params, opt_state, data, n
 
     def loss_fn(p, idx):
         v_hat = predictor.apply_encoded(p, x[idx], yaw[idx])
-        return jnp.mean(l2_error(v_hat, v[idx]))
+        return jnp.mean(LOSSES[cfg.loss](v_hat, v[idx]))
 
     def update(carry, k):
         params, opt_state = carry

@@ -1,0 +1,59 @@
+"""Encoders: hand-worked values, frame invariances and use inside a jitted rollout."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from dyncatch.predictor.config import PredictorCfg
+from dyncatch.predictor.features import FEATURES, History, history_from_state
+from dyncatch.predictor.model import Predictor
+from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.env import reset, step
+
+H = History(
+    target_xy_m=jnp.array([5.0, 4.0]),
+    prev_target_xy_m=jnp.array([4.5, 4.0]),
+    robot_pose=jnp.array([3.0, 4.0, jnp.pi / 2]),
+    prev_robot_pose=jnp.array([3.0, 3.0, jnp.pi / 2]),
+    robot_vel_body_mps=jnp.array([2.0, 0.0]),
+    robot_yaw_rate_rps=jnp.array(0.0),
+)
+
+
+def test_vanilla_world_by_hand():
+    x, yaw = FEATURES["vanilla"]["world"](H, 16.0, 0.5)
+    # p_t / 16, p_{t-1} / 16, velocity (0.5 m in 0.5 s = 1 m/s along x), walls / 16.
+    expected = [5 / 16, 4 / 16, 4.5 / 16, 4 / 16, 1.0, 0.0, 5 / 16, 4 / 16, 11 / 16, 12 / 16]
+    np.testing.assert_allclose(x, expected, atol=1e-6)
+    assert float(yaw) == 0.0
+
+
+def test_egocentric_puts_the_target_in_the_robot_frame():
+    x, yaw = FEATURES["self_aware"]["egocentric"](H, 16.0, 0.5)
+    # The robot faces +y; the target 2 m along +x is 2 m to its right: (0, -2) in its frame.
+    np.testing.assert_allclose(x[:2] * 16.0, [0.0, -2.0], atol=1e-5)
+    np.testing.assert_allclose(x[4:6], [0.0, -1.0], atol=1e-5)  # its velocity, 1 m/s rightward
+    assert float(yaw) == pytest.approx(np.pi / 2)
+
+
+@pytest.mark.parametrize("kind", list(FEATURES))
+@pytest.mark.parametrize("frame", ["world", "relative", "egocentric"])
+def test_predict_runs_inside_a_jitted_rollout(kind, frame):
+    world = WorldCfg()
+    predictor = Predictor.for_world(PredictorCfg(kind=kind, frame=frame, hidden=(8,)), world)
+    params = predictor.init(jax.random.key(0))
+
+    @jax.jit
+    def rollout(key):
+        def body(state, _):
+            state = step(state, jnp.array([1.0, 0.0, 0.3]), world)[0]
+            return state, predictor.predict(params, history_from_state(state))
+
+        return jax.lax.scan(body, reset(key, world), None, length=30)[1]
+
+    v = rollout(jax.random.key(1))
+    assert v.shape == (30, 2)
+    assert bool(jnp.all(jnp.isfinite(v)))
