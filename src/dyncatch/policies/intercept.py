@@ -82,15 +82,18 @@ class InterceptPolicy:
     cfg: InterceptCfg = InterceptCfg()
     pursuit: PursuitCfg = PursuitCfg()
 
-    def init_carry(self, state: EnvState, obs: Obs) -> KalmanCarry:
-        c = KalmanCarry(
+    def _fresh(self, obs: Obs, ready: jax.Array) -> KalmanCarry:
+        """A filter started at the held sighting, at rest, with the initial uncertainty."""
+        return KalmanCarry(
             pos_m=obs.target_obs_xy_m,
             vel_mps=jnp.zeros(2),
             cov=jnp.diag(jnp.array([self.cfg.meas_noise_m**2, self.cfg.init_vel_std_mps**2])),
-            ready=obs.visible > 0.5,
+            ready=ready,
             last_tss_s=obs.time_since_seen_s,
         )
-        return c
+
+    def init_carry(self, state: EnvState, obs: Obs) -> KalmanCarry:
+        return self._fresh(obs, obs.visible > 0.5)
 
     def step(self, carry: KalmanCarry, state: EnvState, obs: Obs, key: jax.Array):
         del state, key
@@ -98,13 +101,7 @@ class InterceptPolicy:
         c = kf_predict(carry, dt, cfg.accel_noise_mps2)
         new = obs.time_since_seen_s < carry.last_tss_s
         first = new & ~carry.ready
-        fresh = KalmanCarry(
-            pos_m=obs.target_obs_xy_m,
-            vel_mps=jnp.zeros(2),
-            cov=jnp.diag(jnp.array([cfg.meas_noise_m**2, cfg.init_vel_std_mps**2])),
-            ready=jnp.ones((), bool),
-            last_tss_s=obs.time_since_seen_s,
-        )
+        fresh = self._fresh(obs, jnp.ones((), bool))
         updated = kf_update(c, obs.target_obs_xy_m, cfg.meas_noise_m)
         c = jax.tree.map(lambda a, b: jnp.where(new, a, b), updated, c)
         c = jax.tree.map(lambda a, b: jnp.where(first, a, b), fresh, c)

@@ -4,9 +4,7 @@ from __future__ import annotations
 
 from flax import struct
 
-
-def static(default):
-    return struct.field(pytree_node=False, default=default)
+from dyncatch.sim.config import static
 
 
 @struct.dataclass
