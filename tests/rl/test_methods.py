@@ -1,0 +1,90 @@
+"""What each method's policy sees."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from dyncatch.predictor.config import PredictorCfg
+from dyncatch.predictor.model import Predictor
+from dyncatch.rl.methods import METHODS, method_obs
+from dyncatch.sim import env
+from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.geometry import world_to_body
+from dyncatch.sim.state import OBS_DIM
+
+WORLD = WorldCfg().with_speed(1.2)
+
+
+def _state_after(steps):
+    s = env.reset(jax.random.key(4), WORLD)
+    step = jax.jit(env.step)
+    for _ in range(steps):
+        s, obs, *_ = step(s, jnp.zeros(3), WORLD)
+    return s, obs
+
+
+def test_registry_holds_the_paper_methods():
+    assert set(METHODS) == {"rl", "p_rl", "sp_rl", "gt_rl", "sp_fp"}
+    assert METHODS["sp_fp"].trained_as == "gt_rl"
+
+
+def test_rl_sees_the_plain_observation_and_gt_rl_the_true_velocity_in_the_base_frame():
+    s, obs = _state_after(3)
+    np.testing.assert_array_equal(method_obs("rl")(s, obs), obs.flat)
+    x = method_obs("gt_rl")(s, obs)
+    assert x.shape == (OBS_DIM + 3,)
+    np.testing.assert_allclose(
+        x[OBS_DIM : OBS_DIM + 2], world_to_body(s.target.vel_mps, s.robot.yaw_rad), atol=1e-6
+    )
+    assert float(x[-1]) == 1.0
+    # The speed of the input is the target's speed (1.2 m/s).
+    np.testing.assert_allclose(jnp.linalg.norm(x[OBS_DIM : OBS_DIM + 2]), 1.2, atol=1e-5)
+
+
+def test_predictor_input_is_zero_until_two_consecutive_sightings():
+    predictor = Predictor.for_world(PredictorCfg(kind="self_aware"), WORLD)
+    params = predictor.init(jax.random.key(0))
+    f = method_obs("sp_rl", predictor, params)
+    s, obs = _state_after(1)
+    assert not bool(s.sensor.consecutive)
+    x = f(s, obs)
+    np.testing.assert_array_equal(x[OBS_DIM:], 0.0)
+    s = s.replace(sensor=s.sensor.replace(consecutive=jnp.array(True)))
+    x = f(s, obs)
+    assert float(x[-1]) == 1.0 and float(jnp.abs(x[OBS_DIM : OBS_DIM + 2]).sum()) > 0
+
+
+def test_bad_combinations_are_refused_with_the_fix():
+    with pytest.raises(ValueError, match="predictor train --kind vanilla"):
+        method_obs("p_rl")
+    with pytest.raises(ValueError, match="train 'gt_rl'"):
+        method_obs("sp_fp")
+    predictor = Predictor.for_world(PredictorCfg(kind="vanilla"), WORLD)
+    with pytest.raises(ValueError, match="needs a 'self_aware' predictor"):
+        method_obs("sp_rl", predictor, predictor.init(jax.random.key(0)))
+    with pytest.raises(ValueError, match="unknown method"):
+        method_obs("magic")
+    assert method_obs(
+        "sp_fp",
+        predictor=Predictor.for_world(PredictorCfg(kind="self_aware"), WORLD),
+        predictor_params={"x": 1},
+        evaluation=True,
+    ).velocity_input == ("self_aware")
+
+
+def test_a_predictor_method_trains_one_iteration_with_the_predictor_inside_the_jit():
+    from dyncatch.rl.config import PPOCfg
+    from dyncatch.rl.train import make_train
+
+    predictor = Predictor.for_world(PredictorCfg(kind="self_aware", hidden=(16,)), WORLD)
+    f = method_obs("sp_rl", predictor, predictor.init(jax.random.key(0)))
+    ppo = PPOCfg(num_envs=8, num_steps=30, num_minibatches=2, update_epochs=1, hidden_sizes=(16,))
+    init, iterate, _ = make_train(WORLD, ppo, f)
+    ts, metrics = jax.jit(iterate)(jax.jit(init)(jax.random.key(0)))
+    assert ts.norm.mean.shape == (OBS_DIM + 3,)
+    assert int(ts.env_steps) == 240
+    assert all(bool(jnp.isfinite(v)) for v in jax.tree.leaves(metrics))
+    # 30 steps cross a camera frame (step 25): some envs had two consecutive sightings,
+    # so the running statistics of the validity flag moved off zero.
+    assert float(ts.norm.mean[-1]) > 0.0
