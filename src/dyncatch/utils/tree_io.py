@@ -1,0 +1,94 @@
+"""Any pytree of arrays to one safetensors file and back (no pickle), written atomically.
+
+Leaves are stored under their tree paths; a JSON ``header`` rides in the file's metadata.
+Loading needs a *template* of the same structure (e.g. a freshly initialised state): every
+leaf's path, shape and dtype must match, else ``TreeFileError`` says which one differs.
+Typed PRNG keys are stored as their raw key data.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from safetensors import SafetensorError
+from safetensors.numpy import load_file, save_file
+
+_HEADER_KEY = "dyncatch_header"
+
+
+class TreeFileError(ValueError):
+    """A file that does not hold the expected tree; the message says what differs."""
+
+
+def _is_key(x) -> bool:
+    return isinstance(x, jax.Array) and jax.dtypes.issubdtype(x.dtype, jax.dtypes.prng_key)
+
+
+def _named_leaves(tree) -> list[tuple[str, object]]:
+    leaves, _ = jax.tree_util.tree_flatten_with_path(tree)
+    return [(jax.tree_util.keystr(path), leaf) for path, leaf in leaves]
+
+
+def save_tree(path: str | os.PathLike, tree, header: dict) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    arrays = {
+        name: np.asarray(jax.random.key_data(leaf) if _is_key(leaf) else leaf)
+        for name, leaf in _named_leaves(tree)
+    }
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
+    os.close(fd)
+    try:
+        save_file(arrays, tmp, metadata={_HEADER_KEY: json.dumps(header)})
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+    return path
+
+
+def read_header(path: str | os.PathLike) -> dict:
+    from safetensors import safe_open
+
+    try:
+        with safe_open(str(path), framework="numpy") as f:
+            return json.loads((f.metadata() or {})[_HEADER_KEY])
+    except FileNotFoundError:
+        raise
+    except (SafetensorError, KeyError, json.JSONDecodeError, OSError) as err:
+        raise TreeFileError(f"{path}: not a dyncatch checkpoint or corrupt ({err})") from None
+
+
+def load_tree(path: str | os.PathLike, template):
+    """(tree shaped like ``template``, header)."""
+    path = Path(path)
+    if not path.exists():
+        raise FileNotFoundError(f"{path}: no such checkpoint")
+    header = read_header(path)
+    try:
+        arrays = load_file(str(path))
+    except (SafetensorError, OSError) as err:
+        raise TreeFileError(f"{path}: corrupt checkpoint ({err})") from None
+    leaves, treedef = jax.tree_util.tree_flatten(template)
+    named = _named_leaves(template)
+    out = []
+    for (name, tleaf), _ in zip(named, leaves, strict=True):
+        if name not in arrays:
+            raise TreeFileError(f"{path}: missing {name}; it was saved by another config")
+        value = arrays[name]
+        want = jax.random.key_data(tleaf) if _is_key(tleaf) else tleaf
+        if value.shape != np.shape(want) or value.dtype != np.asarray(want).dtype:
+            raise TreeFileError(
+                f"{path}: {name} has shape {value.shape} {value.dtype}, expected "
+                f"{np.shape(want)} {np.asarray(want).dtype}: it was saved by another config"
+            )
+        out.append(jax.random.wrap_key_data(value) if _is_key(tleaf) else jnp.asarray(value))
+    if len(arrays) != len(named):
+        raise TreeFileError(f"{path}: holds {len(arrays)} arrays, expected {len(named)}")
+    return jax.tree_util.tree_unflatten(treedef, out), header
