@@ -20,6 +20,7 @@ from dyncatch.cli.predictor import (
     run_predictor_train,
 )
 from dyncatch.cli.render import RenderCmd, run_render
+from dyncatch.cli.train import TrainCmd, run_train
 
 
 @dataclass(frozen=True)
@@ -37,6 +38,7 @@ class Group:
 COMMANDS: dict[str, Command | Group] = {
     "demo": Command(DemoCmd, run_demo),
     "render": Command(RenderCmd, run_render),
+    "train": Command(TrainCmd, run_train),
     "eval": Command(EvalCmd, run_eval),
     "bench": Group("Throughput benchmarks.", {"env": Command(EnvBenchCmd, run_env_bench)}),
     "predictor": Group(
