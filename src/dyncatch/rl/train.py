@@ -51,6 +51,10 @@ class TrainState:
 
 class Transition(NamedTuple):
     obs: jax.Array
+    """Raw policy inputs (for the running normaliser)."""
+    norm_obs: jax.Array
+    """The same, normalised as the policy saw them."""
+    means: jax.Array
     actions: jax.Array
     log_probs: jax.Array
     values: jax.Array
@@ -100,7 +104,8 @@ def make_train(world: WorldCfg, ppo: PPOCfg, obs_fn: ObsFn = flat_obs):
         def step(carry, key):
             env_state, obs = carry
             x = vobs(env_state, obs)
-            mean, log_std, value = net.apply(ts.params, ts.norm(x))
+            x_norm = ts.norm(x)
+            mean, log_std, value = net.apply(ts.params, x_norm)
             action = mean + jnp.exp(log_std) * jax.random.normal(key, mean.shape)
             log_prob = gaussian_log_prob(action, mean, log_std)
             next_state, next_obs, reward, done, info = batch_step(
@@ -108,6 +113,8 @@ def make_train(world: WorldCfg, ppo: PPOCfg, obs_fn: ObsFn = flat_obs):
             )
             tr = Transition(
                 obs=x,
+                norm_obs=x_norm,
+                means=mean,
                 actions=action,
                 log_probs=log_prob,
                 values=value,
@@ -175,21 +182,21 @@ def make_train(world: WorldCfg, ppo: PPOCfg, obs_fn: ObsFn = flat_obs):
     def iterate(ts: TrainState):
         ts, traj = rollout(ts)
         flat = lambda x: x.reshape(ppo.batch_size, *x.shape[2:])  # noqa: E731
-        norm_obs = ts.norm(traj.obs)
         _, _, final_values = net.apply(ts.params, ts.norm(traj.final_obs))
         _, _, last_value = net.apply(ts.params, ts.norm(vobs(ts.env_state, ts.obs)))
         rewards = bootstrap_timeouts(traj.rewards, traj.truncated, final_values, ppo.gamma)
         adv, returns = gae(rewards, traj.values, traj.dones, last_value, ppo.gamma, ppo.gae_lambda)
-        means, log_stds, _ = net.apply(ts.params, norm_obs)
+        # The rollout's own outputs are the "old" policy of the KL and ratio terms.
+        log_stds = ts.params["params"]["log_std"]
         batch = {
-            "obs": flat(norm_obs),
+            "obs": flat(traj.norm_obs),
             "actions": flat(traj.actions),
             "log_probs": flat(traj.log_probs),
             "values": flat(traj.values),
             "advantages": flat(adv),
             "returns": flat(returns),
-            "means": flat(means),
-            "log_stds": jnp.broadcast_to(log_stds, means.shape).reshape(ppo.batch_size, -1),
+            "means": flat(traj.means),
+            "log_stds": jnp.broadcast_to(log_stds, (ppo.batch_size, log_stds.shape[0])),
         }
         ts, metrics = update(ts, batch)
         ts = ts.replace(
