@@ -1,9 +1,10 @@
-"""``dyncatch eval METHOD``: success rate and catch time over target speeds (Table I rows)."""
+"""``dyncatch eval RUN_OR_METHOD``: success rate and catch time over target speeds (Table I rows)."""
 
 from __future__ import annotations
 
 import dataclasses
 import json
+from pathlib import Path
 
 import tyro
 
@@ -12,10 +13,10 @@ from dyncatch.sim.config import WorldCfg
 
 @dataclasses.dataclass(frozen=True)
 class EvalCmd:
-    """Evaluate a method on evaluation seeds disjoint from training ones."""
+    """Evaluate a trained run or a baseline on evaluation seeds disjoint from training ones."""
 
     method: tyro.conf.Positional[str]
-    """A non-learned baseline: pursuit or intercept."""
+    """A run folder written by dyncatch train, or a non-learned baseline: pursuit, intercept."""
     behavior: str = "reactive"
     """Target behaviour."""
     speeds: tuple[float, ...] = (0.8, 1.0, 1.2, 1.4, 1.6, 1.8)
@@ -24,32 +25,56 @@ class EvalCmd:
     """Episodes per speed (each environment plays exactly one)."""
     seed: int = 0
     """Evaluation seed."""
+    as_method: str | None = None
+    """Evaluate a run as a method that reuses its policy (sp_fp for a gt_rl run)."""
+    predictor: Path | None = None
+    """Predictor checkpoint, overriding the one the run was trained with (needed for sp_fp)."""
     json: bool = False
     """Print one JSON object {"rows": [...]} instead of a table."""
     world: WorldCfg = WorldCfg()
-    """The simulated world."""
+    """The simulated world of the baselines (a run is evaluated in the world it was trained in)."""
+
+
+def resolve(target: str, world: WorldCfg, as_method=None, predictor=None):
+    """(policy, method name, world) for a baseline name or a run folder."""
+    from dyncatch.policies.registry import BASELINES
+    from dyncatch.rl.methods import METHODS
+
+    if target in BASELINES:
+        if as_method is not None:
+            raise ValueError("--as-method applies to trained runs, not to baselines")
+        return BASELINES[target](world), target, world
+    if target in METHODS:
+        raise ValueError(
+            f"{target!r} is a learned method: train it (dyncatch train --method "
+            f"{METHODS[target].trained_as or target} --out runs/NAME) and pass the run folder"
+        )
+    if not Path(target).exists():
+        raise ValueError(
+            f"unknown method or run {target!r}: baselines are {', '.join(BASELINES)}; "
+            "a learned method is evaluated from its run folder"
+        )
+    from dyncatch.rl.policy import load_run
+
+    run = load_run(target, as_method, predictor)
+    return run.policy, run.method, run.world
 
 
 def run_eval(cmd: EvalCmd) -> list[dict]:
     from dyncatch.evaluation.grid import evaluate_speeds
-    from dyncatch.policies.registry import BASELINES
     from dyncatch.sim.validate import validate_world
 
-    if cmd.method not in BASELINES:
-        raise ValueError(f"unknown method {cmd.method!r}: baselines are {', '.join(BASELINES)}")
     if cmd.episodes < 1:
         raise ValueError(f"--episodes must be >= 1, got {cmd.episodes}")
     if any(v < 0 for v in cmd.speeds):
         raise ValueError(f"--speeds must be non-negative, got {cmd.speeds}")
-    world = validate_world(cmd.world.with_behavior(cmd.behavior))
-    policy = BASELINES[cmd.method](world)
-    rows = evaluate_speeds(
-        policy, world, cmd.behavior, cmd.speeds, cmd.episodes, cmd.seed, cmd.method
-    )
+    policy, method, world = resolve(cmd.method, cmd.world, cmd.as_method, cmd.predictor)
+    world = validate_world(world.with_behavior(cmd.behavior))
+    rows = evaluate_speeds(policy, world, cmd.behavior, cmd.speeds, cmd.episodes, cmd.seed, method)
     if cmd.json:
         print(json.dumps({"rows": rows}))
     else:
-        print(f"{cmd.method} vs {cmd.behavior}, {cmd.episodes} episodes per speed")
+        print(f"{method} vs {cmd.behavior}, {cmd.episodes} episodes per speed")
         print("| speed (m/s) | success [95% CI] | catch time (s) |\n|---:|---|---:|")
         for r in rows:
             lo, hi = r["success_ci95"]

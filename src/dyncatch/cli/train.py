@@ -111,6 +111,8 @@ def run_train(cmd: TrainCmd) -> dict:
         TimeRemainingColumn(),
     ]
     metrics: dict[str, float] = {}
+    # Wall-clock seconds of training (compilation included), continued across resumes.
+    clock0 = time.perf_counter() - log.last("time_s")
     with Progress(*columns) as bar:
         task = bar.add_task(
             f"{cmd.method} vs {cmd.behavior}", total=total_iters, completed=start, info="compiling"
@@ -119,6 +121,7 @@ def run_train(cmd: TrainCmd) -> dict:
         for it in range(start, total_iters):
             ts, m = iterate(ts)
             metrics = {k: float(v) for k, v in jax.device_get(m).items()}
+            metrics["time_s"] = time.perf_counter() - clock0
             log.write(it + 1, int(ts.env_steps), metrics)
             if t0 is None:
                 t0, done0 = time.perf_counter(), it + 1

@@ -26,6 +26,14 @@ class MetricLog:
             self.csv_path.unlink()
         self.tb = SummaryWriter(str(out / "tb"))
 
+    def last(self, name: str, default: float = 0.0) -> float:
+        """The last logged value of a column (e.g. the wall clock to continue on resume)."""
+        if not self.csv_path.exists():
+            return default
+        with self.csv_path.open() as f:
+            rows = list(csv.DictReader(f))
+        return float(rows[-1][name]) if rows and rows[-1].get(name) else default
+
     def _rewrite(self, rows: list[dict]) -> None:
         if not rows:
             self.csv_path.unlink(missing_ok=True)

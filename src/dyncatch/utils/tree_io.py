@@ -27,7 +27,18 @@ class TreeFileError(ValueError):
 
 
 def _is_key(x) -> bool:
-    return isinstance(x, jax.Array) and jax.dtypes.issubdtype(x.dtype, jax.dtypes.prng_key)
+    return isinstance(x, jax.Array | jax.ShapeDtypeStruct) and jax.dtypes.issubdtype(
+        x.dtype, jax.dtypes.prng_key
+    )
+
+
+def _spec(leaf) -> tuple[tuple[int, ...], np.dtype]:
+    """Shape and dtype a template leaf is stored with (an array or a ShapeDtypeStruct)."""
+    if _is_key(leaf):
+        leaf = jax.eval_shape(jax.random.key_data, leaf)
+    if isinstance(leaf, jax.ShapeDtypeStruct):
+        return tuple(leaf.shape), np.dtype(leaf.dtype)
+    return np.shape(leaf), np.asarray(leaf).dtype
 
 
 def _named_leaves(tree) -> list[tuple[str, object]]:
@@ -66,7 +77,8 @@ def read_header(path: str | os.PathLike) -> dict:
 
 
 def load_tree(path: str | os.PathLike, template):
-    """(tree shaped like ``template``, header)."""
+    """(tree shaped like ``template``, header). The template may be abstract
+    (``jax.eval_shape`` of an initialiser), so loading need not build a real state."""
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"{path}: no such checkpoint")
@@ -82,11 +94,11 @@ def load_tree(path: str | os.PathLike, template):
         if name not in arrays:
             raise TreeFileError(f"{path}: missing {name}; it was saved by another config")
         value = arrays[name]
-        want = jax.random.key_data(tleaf) if _is_key(tleaf) else tleaf
-        if value.shape != np.shape(want) or value.dtype != np.asarray(want).dtype:
+        shape, dtype = _spec(tleaf)
+        if value.shape != shape or value.dtype != dtype:
             raise TreeFileError(
                 f"{path}: {name} has shape {value.shape} {value.dtype}, expected "
-                f"{np.shape(want)} {np.asarray(want).dtype}: it was saved by another config"
+                f"{shape} {dtype}: it was saved by another config"
             )
         out.append(jax.random.wrap_key_data(value) if _is_key(tleaf) else jnp.asarray(value))
     if len(arrays) != len(named):

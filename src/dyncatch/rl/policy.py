@@ -1,0 +1,112 @@
+"""A trained PPO run as a policy for evaluation and rendering.
+
+``load_run(run_dir)`` reads the checkpoint header (method, behaviour, PPO and world
+configs), rebuilds the network and the observation normaliser from the saved arrays and
+returns a ``LearnedPolicy``: the deterministic mean action, mapped to a base command. The
+method's input function is rebuilt too, so ``sp_fp`` is the ``gt_rl`` run loaded with the
+self-aware predictor in place of the ground truth.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import jax
+
+from dyncatch.rl.config import PPOCfg
+from dyncatch.rl.methods import METHODS, MethodObs, get_method, method_obs
+from dyncatch.rl.networks import ActorCritic
+from dyncatch.rl.normalize import RunningNorm
+from dyncatch.rl.train import make_train, to_command
+from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.state import EnvState, Obs
+from dyncatch.utils.config_io import from_dict
+from dyncatch.utils.tree_io import TreeFileError, load_tree, read_header
+
+CHECKPOINT = "checkpoint.safetensors"
+TRAIN_FORMAT = "dyncatch.train/1"
+
+
+@dataclass(frozen=True)
+class LearnedPolicy:
+    """Recurrent-protocol policy (no carry) around a trained actor."""
+
+    net: ActorCritic
+    params: dict
+    norm: RunningNorm
+    obs_fn: MethodObs
+    world: WorldCfg
+
+    def init_carry(self, state: EnvState, obs: Obs) -> tuple:
+        return ()
+
+    def step(self, carry: tuple, state: EnvState, obs: Obs, key: jax.Array):
+        del key  # the mean action: evaluation is deterministic given the world's noise
+        mean, _, _ = self.net.apply(self.params, self.norm(self.obs_fn(state, obs)))
+        return carry, to_command(mean, self.world)
+
+    def __hash__(self) -> int:  # arrays inside: jit sees it as a static argument by identity
+        return id(self)
+
+    def __eq__(self, other) -> bool:
+        return self is other
+
+
+@dataclass(frozen=True)
+class Run:
+    policy: LearnedPolicy
+    method: str
+    """The method evaluated (``sp_fp`` for a ``gt_rl`` run evaluated with the predictor)."""
+    trained_method: str
+    behavior: str
+    world: WorldCfg
+    header: dict
+
+
+def checkpoint_path(run: str | Path) -> Path:
+    p = Path(run)
+    return p / CHECKPOINT if p.is_dir() else p
+
+
+def load_run(
+    run: str | Path, as_method: str | None = None, predictor: str | Path | None = None
+) -> Run:
+    """Load a run folder (or its checkpoint file) written by ``dyncatch train``.
+
+    ``as_method`` evaluates the policy as another method that reuses it (``sp_fp`` for a
+    ``gt_rl`` run); ``predictor`` overrides the predictor checkpoint named in the header.
+    """
+    path = checkpoint_path(run)
+    if not path.exists():
+        raise FileNotFoundError(f"{path}: no such run checkpoint (dyncatch train --out ...)")
+    header = read_header(path)
+    if header.get("format") != TRAIN_FORMAT:
+        raise TreeFileError(f"{path}: not a dyncatch train checkpoint ({header.get('format')})")
+    trained = header["method"]
+    method = as_method or trained
+    m = get_method(method)
+    if method != trained and m.trained_as != trained:
+        reusers = [k for k, v in METHODS.items() if v.trained_as == trained]
+        raise ValueError(
+            f"a {trained!r} run cannot be evaluated as {method!r}"
+            + (f"; it can be evaluated as {', '.join(reusers)}" if reusers else "")
+        )
+    ppo = from_dict(PPOCfg, header["ppo"], "ppo")
+    world = from_dict(WorldCfg, header["world"], "world")
+    pred = pred_params = None
+    if m.velocity_input not in (None, "ground_truth"):
+        pred_path = predictor or header.get("predictor")
+        if pred_path is None:
+            raise ValueError(f"method {method!r} needs --predictor PATH (a {m.velocity_input!r} one)")
+        from dyncatch.predictor.checkpoint import load as load_predictor
+
+        pred, pred_params = load_predictor(pred_path)
+    obs_fn = method_obs(method, pred, pred_params, evaluation=True)
+    # The template is the train state of the method it was trained as (same input size).
+    train_fn = method_obs(trained, pred, pred_params) if method != trained else obs_fn
+    init, _, net = make_train(world, ppo, train_fn)
+    template = jax.eval_shape(init, jax.random.key(0))
+    ts, _ = load_tree(path, template)
+    policy = LearnedPolicy(net, ts.params, ts.norm, obs_fn, world)
+    return Run(policy, method, trained, header["behavior"], world, header)

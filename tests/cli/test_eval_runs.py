@@ -1,0 +1,65 @@
+"""``dyncatch eval RUN``: trained runs, sp_fp from a gt_rl run, and refusals."""
+
+import json
+
+import pytest
+
+from dyncatch.cli.main import main
+from dyncatch.rl.policy import load_run
+from tests.cli.test_train_cli import TINY
+
+PRED_TINY = ["--train.updates", "50", "--train.log-every", "50", "--eval-steps", "2500"]
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    root = tmp_path_factory.mktemp("runs")
+    gt = root / "gt"
+    assert main(["train", "--method", "gt_rl", "--out", str(gt), "--total-steps", "64", *TINY]) == 0
+    pred = root / "pred"
+    argv = ["predictor", "train", "--behavior", "circle", "--steps", "12500", "--hidden", "8"]
+    assert main([*argv, "--out", str(pred), *PRED_TINY]) == 0
+    return gt, pred / "predictor.safetensors"
+
+
+def _rows(capsys, argv):
+    capsys.readouterr()
+    assert main(argv) == 0
+    return json.loads(capsys.readouterr().out)["rows"]
+
+
+def test_a_run_and_its_sp_fp_twin_evaluate(runs, capsys):
+    gt, pred = runs
+    base = ["eval", str(gt), "--behavior", "circle", "--speeds", "0.8", "--episodes", "8"]
+    (row,) = _rows(capsys, [*base, "--json"])
+    assert row["method"] == "gt_rl" and row["episodes"] == 8
+    assert 0.0 <= row["success_rate"] <= 1.0 and 0.0 < row["catch_time_s"] <= 20.0
+    (fp,) = _rows(capsys, [*base, "--json", "--as-method", "sp_fp", "--predictor", str(pred)])
+    assert fp["method"] == "sp_fp"
+    run = load_run(gt, "sp_fp", pred)
+    assert run.trained_method == "gt_rl" and run.policy.obs_fn.velocity_input == "self_aware"
+
+
+def test_the_mean_action_is_deterministic(runs, capsys):
+    gt, _ = runs
+    argv = ["eval", str(gt), "--behavior", "circle", "--speeds", "1.2", "--episodes", "8", "--json"]
+    assert _rows(capsys, argv) == _rows(capsys, argv)
+
+
+def test_bad_runs_are_one_line_errors(runs, tmp_path, capsys):
+    gt, pred = runs
+    cases = [
+        (["eval", str(gt), "--as-method", "p_rl"], "sp_fp"),  # not a reuse of gt_rl
+        (["eval", str(gt), "--as-method", "sp_fp"], "--predictor"),
+        (["eval", "sp_rl"], "dyncatch train"),
+        (["eval", str(tmp_path / "nowhere")], "unknown method or run"),
+    ]
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    (bad / "checkpoint.safetensors").write_bytes(b"\x00" * 64)
+    cases.append((["eval", str(bad)], "corrupt"))
+    for argv, needle in cases:
+        capsys.readouterr()
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err.strip()
+        assert err.count("\n") == 0 and needle in err, (argv, err)
