@@ -1,10 +1,12 @@
-"""``dyncatch bench env``: simulator throughput, printed as a table or JSON."""
+"""``dyncatch bench env|ppo``: simulator and PPO throughput, printed as a table or JSON."""
 
 from __future__ import annotations
 
 import dataclasses
 import json
 
+from dyncatch.cli.train import TRAIN_WORLD
+from dyncatch.rl.config import PPOCfg
 from dyncatch.sim.config import WorldCfg
 
 
@@ -48,3 +50,86 @@ def format_env_table(result: dict) -> str:
     m = result["machine"]
     lines.append(f"\nmachine: {m['cpu']}, {m['cores']} cores, jax {m['jax']} ({m['backend']})")
     return "\n".join(lines)
+
+
+@dataclasses.dataclass(frozen=True)
+class PPOBenchCmd:
+    """PPO samples/s of whole iterations and the achieved fraction of this machine's GEMM peak."""
+
+    method: str = "rl"
+    """Method whose inputs the policy sees (predictor methods use a freshly initialised
+    predictor: the same cost as a trained one)."""
+    behavior: str = "reactive"
+    """Target behaviour."""
+    iterations: int = 5
+    """Timed iterations per repeat (best of 3 repeats; compilation excluded)."""
+    json: bool = False
+    """Print one JSON object instead of a table."""
+    ppo: PPOCfg = PPOCfg()
+    """PPO hyper-parameters and batch geometry (the thing being measured)."""
+    world: WorldCfg = TRAIN_WORLD
+    """The simulated world."""
+
+
+def run_ppo_bench(cmd: PPOBenchCmd) -> dict:
+    import jax
+
+    from dyncatch.bench.machine import machine_info
+    from dyncatch.bench.ppo_bench import mlp_flops, run_ppo_benchmark
+    from dyncatch.predictor.config import PredictorCfg
+    from dyncatch.predictor.model import Predictor
+    from dyncatch.rl.config import validate_ppo
+    from dyncatch.rl.methods import get_method, method_obs
+    from dyncatch.sim.env import observe, reset
+    from dyncatch.sim.validate import validate_world
+
+    world = validate_world(cmd.world.with_behavior(cmd.behavior))
+    ppo = validate_ppo(cmd.ppo)
+    if cmd.iterations < 1:
+        raise ValueError(f"--iterations must be >= 1, got {cmd.iterations}")
+    kind = get_method(cmd.method).velocity_input
+    predictor = params = None
+    pred_flops = 0
+    if kind not in (None, "ground_truth"):
+        predictor = Predictor.for_world(PredictorCfg(kind=kind), world)
+        params = predictor.init(jax.random.key(0))
+        pred_flops = mlp_flops([predictor.input_dim, *predictor.cfg.hidden, 2])
+    obs_fn = method_obs(cmd.method, predictor, params)
+    state = reset(jax.random.key(0), world)
+    obs_dim = int(obs_fn(state, observe(state, world)).shape[0])
+    result = run_ppo_benchmark(world, ppo, obs_fn, obs_dim, cmd.iterations, pred_flops)
+    result.update(
+        {
+            "method": cmd.method,
+            "num_envs": ppo.num_envs,
+            "num_steps": ppo.num_steps,
+            "num_minibatches": ppo.num_minibatches,
+            "update_epochs": ppo.update_epochs,
+            "hidden_sizes": list(ppo.hidden_sizes),
+            "machine": machine_info(),
+        }
+    )
+    if cmd.json:
+        print(json.dumps(result))
+    else:
+        print(format_ppo_table(result))
+    return result
+
+
+def format_ppo_table(r: dict) -> str:
+    m = r["machine"]
+    f = r["flops_per_sample"]
+    return "\n".join(
+        [
+            "| quantity | value |",
+            "|---|---:|",
+            f"| method | {r['method']} |",
+            f"| batch (envs x steps) | {r['num_envs']} x {r['num_steps']} |",
+            f"| samples/s | {r['samples_per_s']:,.0f} |",
+            f"| FLOPs/sample (rollout + update) | {f['rollout']:,} + {f['update']:,} |",
+            f"| achieved GFLOP/s | {r['achieved_gflops']:.1f} |",
+            f"| GEMM peak GFLOP/s {tuple(r['gemm_shape'])} | {r['gemm_peak_gflops']:.1f} |",
+            f"| fraction of peak | {r['fraction_of_peak']:.2f} |",
+            f"\nmachine: {m['cpu']}, {m['cores']} cores, jax {m['jax']} ({m['backend']})",
+        ]
+    )

@@ -10,7 +10,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from dyncatch.cli.bench import EnvBenchCmd, run_env_bench
+from dyncatch.cli.bench import EnvBenchCmd, PPOBenchCmd, run_env_bench, run_ppo_bench
 from dyncatch.cli.demo import DemoCmd, run_demo
 from dyncatch.cli.eval import EvalCmd, run_eval
 from dyncatch.cli.predictor import (
@@ -40,7 +40,10 @@ COMMANDS: dict[str, Command | Group] = {
     "render": Command(RenderCmd, run_render),
     "train": Command(TrainCmd, run_train),
     "eval": Command(EvalCmd, run_eval),
-    "bench": Group("Throughput benchmarks.", {"env": Command(EnvBenchCmd, run_env_bench)}),
+    "bench": Group(
+        "Throughput benchmarks.",
+        {"env": Command(EnvBenchCmd, run_env_bench), "ppo": Command(PPOBenchCmd, run_ppo_bench)},
+    ),
     "predictor": Group(
         "The target-behaviour predictor (Section III-B, Table II).",
         {

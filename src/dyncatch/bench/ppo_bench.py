@@ -1,0 +1,118 @@
+"""PPO throughput: samples/s of whole iterations, and how close the maths runs to the GEMM
+peak XLA reaches on this machine for the network's largest layer.
+
+FLOPs are counted from the layer shapes (2 per multiply-add, bias and activations left
+out): per sample, the rollout's actor+critic forward, the critic forward on the episode's
+final observation (time-out bootstrap), and ``update_epochs`` forward+backward passes of
+actor and critic (backward = 2x forward, gradients for inputs and weights, except the
+first layer, which needs no input gradient). A predictor method adds its predictor's
+forward per rollout sample. The peak is the best rate over several row counts of the
+largest layer's product, so a geometry cannot raise its own yardstick by choosing an
+unlucky minibatch size.
+"""
+
+from __future__ import annotations
+
+import time
+from functools import partial
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from dyncatch.rl.config import PPOCfg
+
+
+PEAK_ROWS = (512, 1024, 2048, 4096, 8192)
+"""Row counts (batch sizes) at which the GEMM peak is measured."""
+
+
+def mlp_flops(sizes: list[int]) -> int:
+    """Forward FLOPs of one sample through dense layers ``sizes[0] -> ... -> sizes[-1]``."""
+    return 2 * sum(a * b for a, b in zip(sizes[:-1], sizes[1:], strict=False))
+
+
+def ppo_flops_per_sample(obs_dim: int, ppo: PPOCfg, predictor_flops: int = 0) -> dict:
+    hidden = list(ppo.hidden_sizes)
+    actor = mlp_flops([obs_dim, *hidden, 3])
+    critic = mlp_flops([obs_dim, *hidden, 1])
+    rollout = actor + critic + critic + predictor_flops
+    first = 2 * obs_dim * hidden[0]  # first-layer input gradients are not computed
+    update = ppo.update_epochs * (3 * (actor + critic) - 2 * first)
+    return {"rollout": rollout, "update": update, "total": rollout + update}
+
+
+@partial(jax.jit, static_argnames=("reps",))
+def _gemm_chain(a: jax.Array, w: jax.Array, reps: int) -> jax.Array:
+    def body(_, x):
+        return jnp.dot(x, w) * 0.5  # keeps values bounded; the chain stops XLA skipping work
+
+    return jax.lax.fori_loop(0, reps, body, a)
+
+
+def gemm_peak_gflops(m: int, k: int, repeats: int = 5, min_seconds: float = 0.5) -> float:
+    """Best fp32 GFLOP/s of jitted (m, k) @ (k, k) products in a chain (square layer)."""
+    a = jax.random.normal(jax.random.key(0), (m, k), jnp.float32)
+    w = jax.random.normal(jax.random.key(1), (k, k), jnp.float32) / np.sqrt(k)
+    flops = 2 * m * k * k
+    reps = 8
+    jax.block_until_ready(_gemm_chain(a, w, reps))
+    while True:  # grow the chain until one call takes min_seconds
+        t0 = time.perf_counter()
+        jax.block_until_ready(_gemm_chain(a, w, reps))
+        dt = time.perf_counter() - t0
+        if dt >= min_seconds or reps >= 1 << 16:
+            break
+        reps *= 2
+        jax.block_until_ready(_gemm_chain(a, w, reps))
+    best = dt
+    for _ in range(repeats - 1):
+        t0 = time.perf_counter()
+        jax.block_until_ready(_gemm_chain(a, w, reps))
+        best = min(best, time.perf_counter() - t0)
+    return flops * reps / best / 1e9
+
+
+def largest_layer(obs_dim: int, ppo: PPOCfg) -> tuple[int, int]:
+    """(fan_in, fan_out) of the layer with the most weights."""
+    sizes = [obs_dim, *ppo.hidden_sizes]
+    return max(zip(sizes[:-1], sizes[1:], strict=False), key=lambda s: s[0] * s[1])
+
+
+def ppo_samples_per_s(init, iterate, ppo: PPOCfg, iterations: int, repeats: int = 3) -> float:
+    """Best of ``repeats`` timings of ``iterations`` compiled PPO iterations."""
+    ts = init(jax.random.key(0))
+    ts, m = iterate(ts)  # compile
+    jax.block_until_ready(m)
+    best = float("inf")
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        for _ in range(iterations):
+            ts, m = iterate(ts)
+        jax.block_until_ready((ts, m))
+        best = min(best, time.perf_counter() - t0)
+    return iterations * ppo.batch_size / best
+
+
+def run_ppo_benchmark(world, ppo: PPOCfg, obs_fn, obs_dim: int, iterations: int, predictor_flops=0):
+    from dyncatch.rl.train import make_train
+
+    init, iterate, _ = make_train(world, ppo, obs_fn)
+    samples = ppo_samples_per_s(jax.jit(init), jax.jit(iterate), ppo, iterations)
+    flops = ppo_flops_per_sample(obs_dim, ppo, predictor_flops)
+    k_in, k_out = largest_layer(obs_dim, ppo)
+    # The largest layer, square in its widest dimension (the chain needs k_in == k_out).
+    k = max(k_in, k_out)
+    rates = {m: gemm_peak_gflops(m, k) for m in PEAK_ROWS}
+    m_best = max(rates, key=rates.get)
+    peak = rates[m_best]
+    achieved = samples * flops["total"] / 1e9
+    return {
+        "samples_per_s": samples,
+        "flops_per_sample": flops,
+        "achieved_gflops": achieved,
+        "gemm_peak_gflops": peak,
+        "gemm_shape": [m_best, k, k],
+        "gemm_gflops_by_rows": {str(m): r for m, r in rates.items()},
+        "fraction_of_peak": achieved / peak,
+    }
