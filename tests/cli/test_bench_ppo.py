@@ -35,7 +35,16 @@ def test_bench_ppo_json(capsys):
 
 
 def test_impossible_geometry_is_a_one_line_error(capsys):
-    argv = ["bench", "ppo", "--ppo.num-envs", "10", "--ppo.num-steps", "3", "--ppo.num-minibatches", "4"]
+    argv = [
+        "bench",
+        "ppo",
+        "--ppo.num-envs",
+        "10",
+        "--ppo.num-steps",
+        "3",
+        "--ppo.num-minibatches",
+        "4",
+    ]
     assert main(argv) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "num_minibatches" in err

@@ -22,7 +22,6 @@ import numpy as np
 
 from dyncatch.rl.config import PPOCfg
 
-
 PEAK_ROWS = (512, 1024, 2048, 4096, 8192)
 """Row counts (batch sizes) at which the GEMM peak is measured."""
 

@@ -20,6 +20,7 @@ from dyncatch.cli.predictor import (
     run_predictor_train,
 )
 from dyncatch.cli.render import RenderCmd, run_render
+from dyncatch.cli.reproduce import ReproduceCmd, run_reproduce
 from dyncatch.cli.train import TrainCmd, run_train
 
 
@@ -40,6 +41,7 @@ COMMANDS: dict[str, Command | Group] = {
     "render": Command(RenderCmd, run_render),
     "train": Command(TrainCmd, run_train),
     "eval": Command(EvalCmd, run_eval),
+    "reproduce": Command(ReproduceCmd, run_reproduce),
     "bench": Group(
         "Throughput benchmarks.",
         {"env": Command(EnvBenchCmd, run_env_bench), "ppo": Command(PPOBenchCmd, run_ppo_bench)},

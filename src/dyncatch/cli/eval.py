@@ -1,4 +1,4 @@
-"""``dyncatch eval RUN_OR_METHOD``: success rate and catch time over target speeds (Table I rows)."""
+"""``dyncatch eval RUN_OR_METHOD``: success rate and catch time per target speed (Table I)."""
 
 from __future__ import annotations
 

@@ -33,6 +33,14 @@ class TrainCmd:
     """Iterations between checkpoints (one is always written at the end)."""
     resume: bool = False
     """Continue the run in --out from its checkpoint (same config required)."""
+    eval_every: int = 10
+    """Iterations between evaluations of the mean-action policy (0: never). The training
+    success_rate column is biased upwards (catches end sooner, so they are over-represented
+    among the episodes that end in an iteration); eval/success_rate is not."""
+    eval_episodes: int = 200
+    """Episodes per evaluation: the same evaluation seeds every time, disjoint from training."""
+    eval_speed_mps: float = 1.8
+    """Target speed of the evaluation episodes."""
     ppo: PPOCfg = PPOCfg()
     """PPO hyper-parameters and batch geometry."""
     world: WorldCfg = TRAIN_WORLD
@@ -70,6 +78,10 @@ def run_train(cmd: TrainCmd) -> dict:
     ppo = validate_ppo(cmd.ppo)
     if cmd.total_steps < 1 or cmd.checkpoint_every < 1:
         raise ValueError("--total-steps and --checkpoint-every must be >= 1")
+    if cmd.eval_every < 0 or cmd.eval_episodes < 1 or cmd.eval_speed_mps < 0:
+        raise ValueError(
+            "--eval-every must be >= 0, --eval-episodes >= 1 and --eval-speed-mps >= 0"
+        )
     predictor = params = None
     method = get_method(cmd.method)
     if method.trained_as is not None:
@@ -84,7 +96,7 @@ def run_train(cmd: TrainCmd) -> dict:
 
         predictor, params = load_predictor(cmd.predictor)
     obs_fn = method_obs(cmd.method, predictor, params)
-    init, iterate, _ = make_train(world, ppo, obs_fn)
+    init, iterate, net = make_train(world, ppo, obs_fn)
     init, iterate = jax.jit(init), jax.jit(iterate)
 
     ckpt = cmd.out / "checkpoint.safetensors"
@@ -111,8 +123,24 @@ def run_train(cmd: TrainCmd) -> dict:
         TimeRemainingColumn(),
     ]
     metrics: dict[str, float] = {}
-    # Wall-clock seconds of training (compilation included), continued across resumes.
+    # Wall-clock seconds of training (compilation included, evaluations excluded),
+    # continued across resumes.
     clock0 = time.perf_counter() - log.last("time_s")
+    eval_world = world.with_speed(cmd.eval_speed_mps)
+
+    def evaluate(ts) -> dict[str, float]:
+        from dyncatch.evaluation.episodes import run_episodes
+        from dyncatch.evaluation.grid import EVAL_STREAM
+        from dyncatch.rl.policy import LearnedPolicy
+
+        policy = LearnedPolicy(net, ts.params, ts.norm, obs_fn, world)
+        key = jax.random.fold_in(jax.random.key(cmd.seed), EVAL_STREAM)
+        out = jax.device_get(run_episodes(policy, key, eval_world, cmd.eval_episodes))
+        return {
+            "eval/success_rate": float(out["success"].mean()),
+            "eval/catch_time_s": float(out["catch_time_s"].mean()),
+        }
+
     with Progress(*columns) as bar:
         task = bar.add_task(
             f"{cmd.method} vs {cmd.behavior}", total=total_iters, completed=start, info="compiling"
@@ -122,6 +150,14 @@ def run_train(cmd: TrainCmd) -> dict:
             ts, m = iterate(ts)
             metrics = {k: float(v) for k, v in jax.device_get(m).items()}
             metrics["time_s"] = time.perf_counter() - clock0
+            if cmd.eval_every and (
+                (it + 1) % cmd.eval_every == 0 or it == start or it + 1 == total_iters
+            ):
+                t_eval = time.perf_counter()
+                metrics.update(evaluate(ts))
+                clock0 += time.perf_counter() - t_eval
+            else:
+                metrics.update({"eval/success_rate": "", "eval/catch_time_s": ""})
             log.write(it + 1, int(ts.env_steps), metrics)
             if t0 is None:
                 t0, done0 = time.perf_counter(), it + 1

@@ -7,7 +7,6 @@ statistics, so the N outcomes are independent and unbiased by episode length.
 from __future__ import annotations
 
 from collections.abc import Callable
-from functools import partial
 
 import jax
 import jax.numpy as jnp
@@ -17,8 +16,7 @@ from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.env import observe, reset, step
 
 
-@partial(jax.jit, static_argnames=("policy", "num_episodes", "num_steps"))
-def _run(policy: Callable, key: jax.Array, cfg: WorldCfg, num_episodes: int, num_steps: int):
+def _run_impl(policy: Callable, key: jax.Array, cfg: WorldCfg, num_episodes: int, num_steps: int):
     k_reset, k_act = jax.random.split(key)
     state = jax.vmap(reset, in_axes=(0, None))(jax.random.split(k_reset, num_episodes), cfg)
     obs = jax.vmap(observe, in_axes=(0, None))(state, cfg)
@@ -43,6 +41,18 @@ def _run(policy: Callable, key: jax.Array, cfg: WorldCfg, num_episodes: int, num
     init = (state, obs, pcarry, zeros_b, zeros_b, ints, floats)
     (_, _, _, _, success, steps, ret), _ = jax.lax.scan(body, init, jnp.arange(num_steps))
     return success, steps, ret
+
+
+_run_static = jax.jit(_run_impl, static_argnames=("policy", "num_episodes", "num_steps"))
+"""Hashable policies (scripted baselines) are compile-time constants."""
+_run_pytree = jax.jit(_run_impl, static_argnames=("num_episodes", "num_steps"))
+"""Pytree policies (``is_pytree_policy``, e.g. trained networks) are arguments, so every
+checkpoint of one architecture reuses one compilation."""
+
+
+def _run(policy, key, cfg, num_episodes: int, num_steps: int):
+    run = _run_pytree if getattr(policy, "is_pytree_policy", False) else _run_static
+    return run(policy, key, cfg, num_episodes, num_steps)
 
 
 def run_episodes(

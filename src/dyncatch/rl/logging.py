@@ -55,7 +55,8 @@ class MetricLog:
                 w.writeheader()
             w.writerow(row)
         for name, value in metrics.items():
-            self.tb.add_scalar(name, value, env_steps)
+            if value != "":  # "" marks a metric not measured at this iteration
+                self.tb.add_scalar(name, value, env_steps)
 
     def close(self) -> None:
         self.tb.close()

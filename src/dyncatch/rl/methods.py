@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import jax
 import jax.numpy as jnp
+from flax import struct
 
 from dyncatch.predictor.features import history_from_state
 from dyncatch.predictor.model import Predictor
@@ -45,15 +46,17 @@ def get_method(name: str) -> Method:
     return METHODS[name]
 
 
-@dataclass(frozen=True)
+@struct.dataclass
 class MethodObs:
     """``(state, obs) -> (D,)`` for one environment: the observation plus the velocity input.
 
-    ``predictor_params`` are closed over as constants (the predictor is frozen in training).
+    A pytree: ``predictor_params`` are its leaves, the rest is static, so policies built on
+    it can be jit arguments (one compilation per method, not per checkpoint). In training it
+    is closed over, so the frozen predictor's weights are constants of the compiled update.
     """
 
-    velocity_input: str | None
-    predictor: Predictor | None = None
+    velocity_input: str | None = struct.field(pytree_node=False)
+    predictor: Predictor | None = struct.field(pytree_node=False, default=None)
     predictor_params: object = None
 
     def velocity(self, state: EnvState) -> tuple[jax.Array, jax.Array]:
@@ -71,12 +74,6 @@ class MethodObs:
         v_world, ok = self.velocity(state)
         v_body = world_to_body(v_world, state.robot.yaw_rad)
         return jnp.concatenate([obs.flat, v_body, ok[None]])
-
-    def __hash__(self) -> int:  # params are arrays: hash by identity for jit's static args
-        return id(self)
-
-    def __eq__(self, other) -> bool:
-        return self is other
 
 
 def method_obs(

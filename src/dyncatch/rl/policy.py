@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import jax
+from flax import struct
 
 from dyncatch.rl.config import PPOCfg
 from dyncatch.rl.methods import METHODS, MethodObs, get_method, method_obs
@@ -28,15 +29,21 @@ CHECKPOINT = "checkpoint.safetensors"
 TRAIN_FORMAT = "dyncatch.train/1"
 
 
-@dataclass(frozen=True)
+@struct.dataclass
 class LearnedPolicy:
-    """Recurrent-protocol policy (no carry) around a trained actor."""
+    """Recurrent-protocol policy (no carry) around a trained actor.
 
-    net: ActorCritic
+    A pytree (weights, normaliser, predictor weights and world are leaves; the network and
+    the method's input kind are static), so evaluation passes it to jit as an argument:
+    every checkpoint of one method shares one compilation.
+    """
+
+    net: ActorCritic = struct.field(pytree_node=False)
     params: dict
     norm: RunningNorm
     obs_fn: MethodObs
     world: WorldCfg
+    is_pytree_policy: bool = struct.field(pytree_node=False, default=True)
 
     def init_carry(self, state: EnvState, obs: Obs) -> tuple:
         return ()
@@ -45,12 +52,6 @@ class LearnedPolicy:
         del key  # the mean action: evaluation is deterministic given the world's noise
         mean, _, _ = self.net.apply(self.params, self.norm(self.obs_fn(state, obs)))
         return carry, to_command(mean, self.world)
-
-    def __hash__(self) -> int:  # arrays inside: jit sees it as a static argument by identity
-        return id(self)
-
-    def __eq__(self, other) -> bool:
-        return self is other
 
 
 @dataclass(frozen=True)
@@ -98,7 +99,9 @@ def load_run(
     if m.velocity_input not in (None, "ground_truth"):
         pred_path = predictor or header.get("predictor")
         if pred_path is None:
-            raise ValueError(f"method {method!r} needs --predictor PATH (a {m.velocity_input!r} one)")
+            raise ValueError(
+                f"method {method!r} needs --predictor PATH (a {m.velocity_input!r} one)"
+            )
         from dyncatch.predictor.checkpoint import load as load_predictor
 
         pred, pred_params = load_predictor(pred_path)

@@ -17,7 +17,9 @@ class ConfigDictError(ValueError):
 
 def from_dict(cls: type, d: dict, where: str = "") -> Any:
     if not isinstance(d, dict):
-        raise ConfigDictError(f"{where or cls.__name__}: expected an object, got {type(d).__name__}")
+        raise ConfigDictError(
+            f"{where or cls.__name__}: expected an object, got {type(d).__name__}"
+        )
     fields = {f.name: f for f in dataclasses.fields(cls)}
     unknown = sorted(set(d) - set(fields))
     if unknown:

@@ -8,7 +8,6 @@ auto-reset; rows after the first ``done`` are dropped on the host.
 from __future__ import annotations
 
 from collections.abc import Callable
-from functools import partial
 
 import jax
 import jax.numpy as jnp
@@ -63,8 +62,7 @@ def _snapshot(state: EnvState, done: jax.Array, cfg: WorldCfg, extra_fn, obs: Ob
     return row
 
 
-@partial(jax.jit, static_argnames=("policy", "num_steps", "extra_fn"))
-def _rollout(
+def _rollout_impl(
     policy: Callable, key: jax.Array, cfg: WorldCfg, num_steps: int, extra_fn: ExtraFn | None
 ) -> dict[str, jax.Array]:
     """Rows of ``num_steps + 1`` states: each value has a leading axis of that length."""
@@ -83,6 +81,16 @@ def _rollout(
     init = (state, obs, pol.init_carry(state, obs))
     _, rows = jax.lax.scan(body, init, jnp.arange(num_steps))
     return jax.tree.map(lambda a, b: jnp.concatenate([a[None], b]), first, rows)
+
+
+_rollout_static = jax.jit(_rollout_impl, static_argnames=("policy", "num_steps", "extra_fn"))
+_rollout_pytree = jax.jit(_rollout_impl, static_argnames=("num_steps", "extra_fn"))
+
+
+def _rollout(policy, key, cfg, num_steps, extra_fn):
+    """Pytree policies (``is_pytree_policy``) are jit arguments; others are static."""
+    run = _rollout_pytree if getattr(policy, "is_pytree_policy", False) else _rollout_static
+    return run(policy, key, cfg, num_steps, extra_fn)
 
 
 def record_episode(

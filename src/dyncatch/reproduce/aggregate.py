@@ -1,0 +1,127 @@
+"""Seeds to means and 95 % confidence intervals, and the ordering checks of the paper."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from dyncatch.evaluation.stats import wilson_ci95
+
+T95 = {1: 12.706, 2: 4.303, 3: 3.182, 4: 2.776, 5: 2.571, 6: 2.447, 7: 2.365, 8: 2.306, 9: 2.262}
+"""Two-sided 95 % Student-t quantiles by degrees of freedom (1.96 beyond)."""
+
+
+def t95(df: int) -> float:
+    return T95.get(df, 1.96)
+
+
+def mean_ci(values: list[float]) -> tuple[float, tuple[float, float] | None]:
+    """Mean and t-interval over seeds (None with a single seed)."""
+    x = np.asarray(values, float)
+    m = float(x.mean())
+    if x.size < 2:
+        return m, None
+    half = t95(x.size - 1) * float(x.std(ddof=1)) / math.sqrt(x.size)
+    return m, (m - half, m + half)
+
+
+def summarize_cells(rows: list[dict]) -> list[dict]:
+    """Group evaluation rows by (behaviour, method, speed) over seeds.
+
+    Success: mean over seeds with a t-interval over seeds when there are 2+ seeds, else the
+    Wilson interval of the pooled episodes (also reported as ``pooled_ci95``).
+    """
+    groups: dict[tuple, list[dict]] = {}
+    for r in rows:
+        groups.setdefault((r["behavior"], r["method"], r["speed_mps"]), []).append(r)
+    out = []
+    for (behavior, method, speed), rs in groups.items():
+        succ = [r["success_rate"] for r in rs]
+        times = [r["catch_time_s"] for r in rs]
+        n = sum(r["episodes"] for r in rs)
+        k = round(sum(r["success_rate"] * r["episodes"] for r in rs))
+        pooled = list(wilson_ci95(k, n))
+        m, ci = mean_ci(succ)
+        tm, tci = mean_ci(times)
+        out.append(
+            {
+                "behavior": behavior,
+                "method": method,
+                "speed_mps": speed,
+                "seeds": len(rs) if rs[0].get("seed") is not None else 0,
+                "episodes": n,
+                "success_rate": m,
+                "success_ci95": list(ci) if ci else pooled,
+                "ci_over": "seeds" if ci else "episodes",
+                "pooled_ci95": pooled,
+                "per_seed_success": succ,
+                "catch_time_s": tm,
+                "catch_time_ci95": list(tci) if tci else None,
+                "trained_on": rs[0].get("trained_on"),
+            }
+        )
+    return out
+
+
+def average_column(cells: list[dict]) -> list[dict]:
+    """Table I's 'Average' column: per (behaviour, method), the mean over speeds of each
+    seed's success, then mean and CI over seeds."""
+    groups: dict[tuple, list[dict]] = {}
+    for c in cells:
+        groups.setdefault((c["behavior"], c["method"]), []).append(c)
+    out = []
+    for (behavior, method), cs in groups.items():
+        per_seed = np.mean([c["per_seed_success"] for c in cs], axis=0).tolist()
+        m, ci = mean_ci(per_seed)
+        n = sum(c["episodes"] for c in cs)
+        k = round(sum(c["success_rate"] * c["episodes"] for c in cs))
+        out.append(
+            {
+                "behavior": behavior,
+                "method": method,
+                "speed_mps": None,
+                "episodes": n,
+                "success_rate": m,
+                "success_ci95": list(ci) if ci else list(wilson_ci95(k, n)),
+                "per_seed_success": per_seed,
+                "catch_time_s": float(np.mean([c["catch_time_s"] for c in cs])),
+            }
+        )
+    return out
+
+
+def gap(a: dict, b: dict) -> dict:
+    """Success of ``a`` minus ``b`` with a 95 % CI: Welch over seeds when both have 2+
+    seeds, else a normal interval on the pooled episode proportions."""
+    sa, sb = a["per_seed_success"], b.get("per_seed_success", [b["success_rate"]])
+    d = a["success_rate"] - b["success_rate"]
+    if len(sa) >= 2 and len(sb) >= 2:
+        se = math.sqrt(np.var(sa, ddof=1) / len(sa) + np.var(sb, ddof=1) / len(sb))
+        half = t95(min(len(sa), len(sb)) - 1) * se
+    else:
+        na, nb = a["episodes"], b["episodes"]
+        pa, pb = a["success_rate"], b["success_rate"]
+        half = 1.96 * math.sqrt(max(pa * (1 - pa), 1e-12) / na + max(pb * (1 - pb), 1e-12) / nb)
+    lo, hi = d - half, d + half
+    verdict = "holds" if lo > 0 else ("reversed" if hi < 0 else "unresolved (CI spans 0)")
+    return {"difference": d, "ci95": [lo, hi], "verdict": verdict}
+
+
+ORDERING = (("sp_rl", "rl"), ("sp_rl", "p_rl"), ("sp_rl", "sp_fp"), ("sp_fp", "rl"))
+"""The paper's high-speed claims, each 'first beats second' (sp_fp between rl and sp_rl)."""
+
+
+def ordering_checks(cells: list[dict], speeds) -> list[dict]:
+    by = {(c["behavior"], c["method"], c["speed_mps"]): c for c in cells}
+    checks = []
+    for behavior in dict.fromkeys(c["behavior"] for c in cells):
+        for speed in speeds:
+            for hi, lo in ORDERING:
+                a, b = by.get((behavior, hi, speed)), by.get((behavior, lo, speed))
+                if a is None or b is None:
+                    continue
+                checks.append(
+                    {"behavior": behavior, "speed_mps": speed, "claim": f"{hi} > {lo}", **gap(a, b)}
+                )
+    return checks

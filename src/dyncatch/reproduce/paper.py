@@ -1,0 +1,96 @@
+"""The paper's published numbers, for side-by-side tables (different simulator: Isaac Gym)."""
+
+from __future__ import annotations
+
+PAPER_SPEEDS_MPS = (0.8, 1.0, 1.2, 1.4, 1.6, 1.8)
+
+PAPER_TABLE_I: dict[tuple[str, str], tuple[tuple[float, float], ...]] = {
+    # (behavior, method): ((success, catch time s) per speed 0.8 ... 1.8, then the average)
+    ("reactive", "rl"): (
+        (0.952, 3.24),
+        (0.716, 8.46),
+        (0.522, 11.50),
+        (0.236, 16.30),
+        (0.026, 19.56),
+        (0.0, 20.00),
+        (0.409, 13.18),
+    ),
+    ("reactive", "p_rl"): (
+        (0.871, 4.62),
+        (0.803, 5.88),
+        (0.493, 11.40),
+        (0.200, 16.70),
+        (0.005, 19.10),
+        (0.009, 20.00),
+        (0.397, 12.95),
+    ),
+    ("reactive", "sp_fp"): (
+        (0.969, 3.02),
+        (0.943, 3.40),
+        (0.891, 5.22),
+        (0.625, 10.32),
+        (0.463, 12.88),
+        (0.275, 15.90),
+        (0.694, 8.46),
+    ),
+    ("reactive", "sp_rl"): (
+        (0.982, 2.48),
+        (0.978, 2.62),
+        (0.978, 2.82),
+        (0.987, 2.94),
+        (0.973, 3.70),
+        (0.908, 5.76),
+        (0.968, 3.39),
+    ),
+    ("random_reactive", "rl"): (
+        (0.769, 6.67),
+        (0.622, 9.73),
+        (0.489, 12.49),
+        (0.245, 16.36),
+        (0.105, 18.33),
+        (0.022, 19.70),
+        (0.375, 13.88),
+    ),
+    ("random_reactive", "p_rl"): (
+        (0.791, 5.82),
+        (0.655, 8.39),
+        (0.345, 13.93),
+        (0.148, 17.47),
+        (0.096, 18.36),
+        (0.061, 19.01),
+        (0.349, 13.83),
+    ),
+    ("random_reactive", "sp_fp"): (
+        (0.996, 2.13),
+        (0.998, 2.42),
+        (0.991, 3.04),
+        (0.925, 4.84),
+        (0.725, 8.97),
+        (0.502, 13.44),
+        (0.856, 5.81),
+    ),
+    ("random_reactive", "sp_rl"): (
+        (0.987, 2.38),
+        (0.978, 2.86),
+        (0.978, 3.10),
+        (0.961, 4.13),
+        (0.925, 5.48),
+        (0.864, 7.34),
+        (0.949, 4.22),
+    ),
+}
+"""Table I of the paper (success rate / catching time, 20 s limit); no gt_rl, pursuit or
+intercept rows were published."""
+
+
+def paper_cell(behavior: str, method: str, speed_mps: float | None) -> tuple[float, float] | None:
+    """(success, time) at a speed, or the average column when ``speed_mps`` is None."""
+    row = PAPER_TABLE_I.get((behavior, method))
+    if row is None:
+        return None
+    if speed_mps is None:
+        return row[-1]
+    for i, v in enumerate(PAPER_SPEEDS_MPS):
+        if abs(v - speed_mps) < 1e-6:
+            return row[i]
+    return None

@@ -1,0 +1,248 @@
+"""Figures, ``report.md`` and ``results.json`` from the cached stage outputs."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+
+from dyncatch.reproduce.paper import paper_cell
+from dyncatch.reproduce.plan import ALL_BEHAVIORS, LEARNED, Plan
+
+METHOD_LABEL = {
+    "rl": "RL",
+    "p_rl": "P+RL",
+    "sp_fp": "SP+FP",
+    "sp_rl": "SP+RL (ours)",
+    "gt_rl": "GT-Pred RL",
+    "pursuit": "pursuit (scripted)",
+    "intercept": "intercept (KF)",
+}
+ORDER = ("rl", "p_rl", "sp_fp", "sp_rl", "gt_rl", "pursuit", "intercept")
+COLORS = dict(zip(ORDER, ("C0", "C1", "C2", "C3", "C4", "C7", "C8"), strict=True))
+
+
+def read_curve(run: Path) -> dict[str, np.ndarray]:
+    """Per-iteration training columns, and the periodic evaluations (``eval_*``, on the
+    iterations where the run evaluated its mean-action policy)."""
+    with (run / "metrics.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    keys = ("env_steps", "success_rate", "reward_per_step", "time_s")
+    curve = {k: np.array([float(r[k]) for r in rows]) for k in keys}
+    evaluated = [r for r in rows if r.get("eval/success_rate")]
+    curve["eval_env_steps"] = np.array([float(r["env_steps"]) for r in evaluated])
+    curve["eval_time_s"] = np.array([float(r["time_s"]) for r in evaluated])
+    curve["eval_success_rate"] = np.array([float(r["eval/success_rate"]) for r in evaluated])
+    return curve
+
+
+def smooth(x: np.ndarray, window: int = 5) -> np.ndarray:
+    if len(x) < window:
+        return x
+    kernel = np.ones(window) / window
+    padded = np.concatenate([np.full(window - 1, x[0]), x])
+    return np.convolve(padded, kernel, mode="valid")
+
+
+def curves(plan: Plan, out: Path) -> dict:
+    from dyncatch.reproduce.stages import run_dir
+
+    result = {}
+    for behavior in plan.behaviors:
+        for method in LEARNED:
+            runs = [read_curve(run_dir(out, behavior, method, s)) for s in range(plan.seeds)]
+            result[(behavior, method)] = {
+                k: np.stack([r[k][: min(len(q[k]) for q in runs)] for r in runs]) for k in runs[0]
+            }
+    return result
+
+
+def plot_fig5(plan: Plan, data: dict, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(
+        2, len(plan.behaviors), figsize=(5.5 * len(plan.behaviors), 7), squeeze=False
+    )
+    for j, behavior in enumerate(plan.behaviors):
+        panels = (
+            (
+                "eval_env_steps",
+                "eval_success_rate",
+                f"success at {plan.fig6_speed_mps} m/s (evaluation)",
+                False,
+            ),
+            ("env_steps", "reward_per_step", "reward per step (training)", True),
+        )
+        for i, (xkey, key, label, smoothed) in enumerate(panels):
+            ax = axes[i, j]
+            for method in LEARNED:
+                d = data[(behavior, method)]
+                if d[key].shape[1] == 0:
+                    continue
+                x = d[xkey][0] / 1e6
+                ys = np.stack([smooth(y) if smoothed else y for y in d[key]])
+                ax.plot(x, ys.mean(0), color=COLORS[method], label=METHOD_LABEL[method])
+                if ys.shape[0] > 1:
+                    ax.fill_between(x, ys.min(0), ys.max(0), color=COLORS[method], alpha=0.2)
+            ax.set_xlabel("environment steps (M)")
+            ax.set_ylabel(label)
+            ax.set_title(f"{behavior}")
+            ax.grid(alpha=0.3)
+    axes[0, 0].legend(loc="lower right")
+    fig.suptitle(f"Fig. 5 (ours): mean over {plan.seeds} seed(s), band = min-max over seeds")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_fig6(cells: list[dict], methods, path: Path, speed: float) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    by = {(c["behavior"], c["method"]): c for c in cells}
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
+    width = 0.8 / len(methods)
+    xs = np.arange(len(ALL_BEHAVIORS))
+    for k, method in enumerate(methods):
+        for ax, key in zip(axes, ("success_rate", "catch_time_s"), strict=True):
+            vals = [by[(b, method)][key] if (b, method) in by else np.nan for b in ALL_BEHAVIORS]
+            err = None
+            if key == "success_rate":
+                lo = [
+                    v - by[(b, method)]["success_ci95"][0] if (b, method) in by else 0
+                    for b, v in zip(ALL_BEHAVIORS, vals, strict=True)
+                ]
+                hi = [
+                    by[(b, method)]["success_ci95"][1] - v if (b, method) in by else 0
+                    for b, v in zip(ALL_BEHAVIORS, vals, strict=True)
+                ]
+                err = np.maximum([lo, hi], 0)
+            ax.bar(
+                xs + (k - len(methods) / 2 + 0.5) * width,
+                vals,
+                width,
+                yerr=err,
+                color=COLORS[method],
+                label=METHOD_LABEL[method],
+                capsize=2,
+            )
+    axes[0].set_ylabel("success rate")
+    axes[1].set_ylabel("mean catch time (s, failure = limit)")
+    for ax in axes:
+        ax.set_xticks(xs, ALL_BEHAVIORS)
+        ax.grid(axis="y", alpha=0.3)
+    axes[0].legend(fontsize=8, loc="lower left")
+    fig.suptitle(f"Fig. 6 (ours): target speed {speed} m/s, 95 % CIs")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_table_i(cells: list[dict], behaviors, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(behaviors), figsize=(6 * len(behaviors), 4.2), squeeze=False)
+    for ax, behavior in zip(axes[0], behaviors, strict=True):
+        for method in ORDER:
+            cs = sorted(
+                (c for c in cells if c["behavior"] == behavior and c["method"] == method),
+                key=lambda c: c["speed_mps"],
+            )
+            if not cs:
+                continue
+            x = [c["speed_mps"] for c in cs]
+            y = [c["success_rate"] for c in cs]
+            ax.plot(x, y, "o-", color=COLORS[method], label=METHOD_LABEL[method])
+            ax.fill_between(
+                x,
+                [c["success_ci95"][0] for c in cs],
+                [c["success_ci95"][1] for c in cs],
+                color=COLORS[method],
+                alpha=0.15,
+            )
+        ax.set_title(f"Table I (ours): {behavior}")
+        ax.set_xlabel("target speed (m/s)")
+        ax.set_ylabel("success rate")
+        ax.set_ylim(-0.02, 1.02)
+        ax.grid(alpha=0.3)
+    axes[0, 0].legend(fontsize=8, loc="lower left")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _cell(c: dict | None) -> str:
+    if c is None:
+        return "-"
+    lo, hi = c["success_ci95"]
+    return f"{c['success_rate']:.3f} [{lo:.2f}, {hi:.2f}] / {c['catch_time_s']:.2f}"
+
+
+def _paper(behavior: str, method: str, speed) -> str:
+    p = paper_cell(behavior, method, speed)
+    return "-" if p is None else f"{p[0]:.3f} / {p[1]:.2f}"
+
+
+def table_i_markdown(cells, averages, behavior: str, speeds) -> str:
+    by = {(c["method"], c["speed_mps"]): c for c in cells if c["behavior"] == behavior}
+    avg = {a["method"]: a for a in averages if a["behavior"] == behavior}
+    head = " | ".join(f"{v:.1f} m/s" for v in speeds)
+    lines = [f"| method | source | {head} | average |", "|---|---|" + "---|" * (len(speeds) + 1)]
+    for method in ORDER:
+        if method not in avg:
+            continue
+        ours = [_cell(by.get((method, v))) for v in speeds]
+        lines.append(
+            f"| {METHOD_LABEL[method]} | ours | {' | '.join(ours)} | {_cell(avg[method])} |"
+        )
+        if paper_cell(behavior, method, None) is not None:
+            paper = [_paper(behavior, method, v) for v in speeds]
+            lines.append(f"| | paper | {' | '.join(paper)} | {_paper(behavior, method, None)} |")
+    return "\n".join(lines)
+
+
+def fig6_markdown(cells: list[dict]) -> str:
+    by = {(c["behavior"], c["method"]): c for c in cells}
+    lines = [
+        "| method | " + " | ".join(ALL_BEHAVIORS) + " |",
+        "|---|" + "---|" * len(ALL_BEHAVIORS),
+    ]
+    for method in ORDER:
+        if not any((b, method) in by for b in ALL_BEHAVIORS):
+            continue
+        lines.append(
+            f"| {METHOD_LABEL[method]} | "
+            + " | ".join(_cell(by.get((b, method))) for b in ALL_BEHAVIORS)
+            + " |"
+        )
+    return "\n".join(lines)
+
+
+def checks_markdown(checks: list[dict]) -> str:
+    lines = [
+        "| behaviour | speed | claim | success difference [95% CI] | verdict |",
+        "|---|---|---|---|---|",
+    ]
+    for c in checks:
+        speed = "average" if c["speed_mps"] is None else f"{c['speed_mps']:.1f} m/s"
+        lo, hi = c["ci95"]
+        lines.append(
+            f"| {c['behavior']} | {speed} | {c['claim']} | {c['difference']:+.3f} "
+            f"[{lo:+.3f}, {hi:+.3f}] | {c['verdict']} |"
+        )
+    return "\n".join(lines)
+
+
+def table_ii_markdown(rows: list[dict]) -> str:
+    from dyncatch.predictor.table import markdown
+
+    return markdown(rows)
