@@ -18,8 +18,10 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install -q -e '.[dev]'
 	touch $(STAMP)
 
+# The quick reproduction: every stage of `dyncatch reproduce` at a small size (about 10 min on
+# 2 cores); re-running skips what is finished.
 demo: $(STAMP)
-	$(BIN)/dyncatch demo --out results/demo
+	$(BIN)/dyncatch reproduce --quick --out results/quick
 
 # pytest exits 5 when it collected no test: that is a failure here, as any other non-zero.
 test: $(STAMP)
