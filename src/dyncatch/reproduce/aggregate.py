@@ -26,6 +26,11 @@ def mean_ci(values: list[float]) -> tuple[float, tuple[float, float] | None]:
     return m, (m - half, m + half)
 
 
+def clip01(ci: tuple[float, float] | None) -> list[float] | None:
+    """A success-rate interval cut to [0, 1] (a t-interval over few seeds can overshoot)."""
+    return None if ci is None else [max(0.0, ci[0]), min(1.0, ci[1])]
+
+
 def summarize_cells(rows: list[dict]) -> list[dict]:
     """Group evaluation rows by (behaviour, method, speed) over seeds.
 
@@ -52,10 +57,11 @@ def summarize_cells(rows: list[dict]) -> list[dict]:
                 "seeds": len(rs) if rs[0].get("seed") is not None else 0,
                 "episodes": n,
                 "success_rate": m,
-                "success_ci95": list(ci) if ci else pooled,
+                "success_ci95": clip01(ci) if ci else pooled,
                 "ci_over": "seeds" if ci else "episodes",
                 "pooled_ci95": pooled,
                 "per_seed_success": succ,
+                "per_seed_catch_time_s": times,
                 "catch_time_s": tm,
                 "catch_time_ci95": list(tci) if tci else None,
                 "trained_on": rs[0].get("trained_on"),
@@ -73,7 +79,9 @@ def average_column(cells: list[dict]) -> list[dict]:
     out = []
     for (behavior, method), cs in groups.items():
         per_seed = np.mean([c["per_seed_success"] for c in cs], axis=0).tolist()
+        per_seed_time = np.mean([c["per_seed_catch_time_s"] for c in cs], axis=0).tolist()
         m, ci = mean_ci(per_seed)
+        tm, tci = mean_ci(per_seed_time)
         n = sum(c["episodes"] for c in cs)
         k = round(sum(c["success_rate"] * c["episodes"] for c in cs))
         out.append(
@@ -83,12 +91,23 @@ def average_column(cells: list[dict]) -> list[dict]:
                 "speed_mps": None,
                 "episodes": n,
                 "success_rate": m,
-                "success_ci95": list(ci) if ci else list(wilson_ci95(k, n)),
+                "success_ci95": clip01(ci) if ci else list(wilson_ci95(k, n)),
                 "per_seed_success": per_seed,
-                "catch_time_s": float(np.mean([c["catch_time_s"] for c in cs])),
+                "per_seed_catch_time_s": per_seed_time,
+                "catch_time_s": tm,
+                "catch_time_ci95": list(tci) if tci else None,
             }
         )
     return out
+
+
+def _welch_half(sa: list[float], sb: list[float]) -> float:
+    se = math.sqrt(np.var(sa, ddof=1) / len(sa) + np.var(sb, ddof=1) / len(sb))
+    return t95(min(len(sa), len(sb)) - 1) * se
+
+
+def _verdict(lo: float, hi: float) -> str:
+    return "holds" if lo > 0 else ("reversed" if hi < 0 else "unresolved (CI spans 0)")
 
 
 def gap(a: dict, b: dict) -> dict:
@@ -97,15 +116,36 @@ def gap(a: dict, b: dict) -> dict:
     sa, sb = a["per_seed_success"], b.get("per_seed_success", [b["success_rate"]])
     d = a["success_rate"] - b["success_rate"]
     if len(sa) >= 2 and len(sb) >= 2:
-        se = math.sqrt(np.var(sa, ddof=1) / len(sa) + np.var(sb, ddof=1) / len(sb))
-        half = t95(min(len(sa), len(sb)) - 1) * se
+        half = _welch_half(sa, sb)
     else:
         na, nb = a["episodes"], b["episodes"]
         pa, pb = a["success_rate"], b["success_rate"]
         half = 1.96 * math.sqrt(max(pa * (1 - pa), 1e-12) / na + max(pb * (1 - pb), 1e-12) / nb)
     lo, hi = d - half, d + half
-    verdict = "holds" if lo > 0 else ("reversed" if hi < 0 else "unresolved (CI spans 0)")
-    return {"difference": d, "ci95": [lo, hi], "verdict": verdict}
+    return {
+        "metric": "success_rate",
+        "difference": d,
+        "ci95": [lo, hi],
+        "verdict": _verdict(lo, hi),
+    }
+
+
+def time_gap(a: dict, b: dict) -> dict | None:
+    """Seconds ``a`` catches sooner than ``b`` (``b``'s mean catch time minus ``a``'s), with
+    a Welch CI over seeds; None unless both have 2+ seeds (per-episode times are not kept,
+    so there is no single-seed interval)."""
+    sa, sb = a.get("per_seed_catch_time_s", []), b.get("per_seed_catch_time_s", [])
+    if len(sa) < 2 or len(sb) < 2:
+        return None
+    d = b["catch_time_s"] - a["catch_time_s"]
+    half = _welch_half(sa, sb)
+    lo, hi = d - half, d + half
+    return {
+        "metric": "catch_time_s",
+        "difference": d,
+        "ci95": [lo, hi],
+        "verdict": _verdict(lo, hi),
+    }
 
 
 ORDERING = (("sp_rl", "rl"), ("sp_rl", "p_rl"), ("sp_rl", "sp_fp"), ("sp_fp", "rl"))
@@ -113,6 +153,8 @@ ORDERING = (("sp_rl", "rl"), ("sp_rl", "p_rl"), ("sp_rl", "sp_fp"), ("sp_fp", "r
 
 
 def ordering_checks(cells: list[dict], speeds) -> list[dict]:
+    """Each claim on success (``metric`` success_rate: difference in rate) and, with 2+
+    seeds, on catch time (``metric`` catch_time_s: seconds the first method saves)."""
     by = {(c["behavior"], c["method"], c["speed_mps"]): c for c in cells}
     checks = []
     for behavior in dict.fromkeys(c["behavior"] for c in cells):
@@ -121,7 +163,9 @@ def ordering_checks(cells: list[dict], speeds) -> list[dict]:
                 a, b = by.get((behavior, hi, speed)), by.get((behavior, lo, speed))
                 if a is None or b is None:
                     continue
-                checks.append(
-                    {"behavior": behavior, "speed_mps": speed, "claim": f"{hi} > {lo}", **gap(a, b)}
-                )
+                where = {"behavior": behavior, "speed_mps": speed, "claim": f"{hi} > {lo}"}
+                checks.append({**where, **gap(a, b)})
+                faster = time_gap(a, b)
+                if faster is not None:
+                    checks.append({**where, **faster})
     return checks

@@ -174,8 +174,10 @@ def render_report(r: dict, plan: Plan) -> str:
         "",
         "## The paper's ordering at high speed",
         "",
-        "Each claim is 'first method's success minus second's', with its 95 % CI "
-        "(Welch over seeds with 2+ seeds, else normal on pooled episodes).",
+        "Each claim is judged on success (first method's rate minus second's; 95 % CI "
+        "Welch over seeds with 2+ seeds, else normal on pooled episodes) and, with 2+ "
+        "seeds, on catch time (second method's mean catch time minus first's, the seconds "
+        "the first saves; Welch CI over seeds). 'holds' means the CI is above 0.",
         "",
         report.checks_markdown(r["ordering_checks"]),
         "",

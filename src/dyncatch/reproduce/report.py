@@ -227,16 +227,20 @@ def fig6_markdown(cells: list[dict]) -> str:
     return "\n".join(lines)
 
 
+MEASURE_LABEL = {"success_rate": "success rate", "catch_time_s": "catch time (s saved)"}
+
+
 def checks_markdown(checks: list[dict]) -> str:
     lines = [
-        "| behaviour | speed | claim | success difference [95% CI] | verdict |",
-        "|---|---|---|---|---|",
+        "| behaviour | speed | claim | measure | difference [95% CI] | verdict |",
+        "|---|---|---|---|---|---|",
     ]
     for c in checks:
         speed = "average" if c["speed_mps"] is None else f"{c['speed_mps']:.1f} m/s"
         lo, hi = c["ci95"]
+        measure = MEASURE_LABEL[c.get("metric", "success_rate")]
         lines.append(
-            f"| {c['behavior']} | {speed} | {c['claim']} | {c['difference']:+.3f} "
+            f"| {c['behavior']} | {speed} | {c['claim']} | {measure} | {c['difference']:+.3f} "
             f"[{lo:+.3f}, {hi:+.3f}] | {c['verdict']} |"
         )
     return "\n".join(lines)
