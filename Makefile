@@ -18,8 +18,8 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install -q -e '.[dev]'
 	touch $(STAMP)
 
-# The quick reproduction: every stage of `dyncatch reproduce` at a small size (about 10 min on
-# 2 cores); re-running skips what is finished.
+# The quick reproduction: every stage of `dyncatch reproduce` at a small size (8.9 min measured
+# on 2 cores, docs/results.md); re-running skips what is finished.
 demo: $(STAMP)
 	$(BIN)/dyncatch reproduce --quick --out results/quick
 

@@ -95,3 +95,17 @@ def test_bad_flags_are_one_line_errors(tmp_path, capsys):
         assert main(["reproduce", "--quick", "--out", str(tmp_path / "x"), *argv]) == 2
         err = capsys.readouterr().err.strip()
         assert err.count("\n") == 0 and needle in err, err
+
+
+def test_profiles_keep_their_network_unless_a_flag_changes_it():
+    from dyncatch.cli.reproduce import ReproduceCmd, plan_of
+    from dyncatch.rl.config import PPOCfg
+
+    quick = plan_of(ReproduceCmd(quick=True))
+    assert quick.ppo.hidden_sizes == (128, 128, 64) and quick.train_steps == 800_000
+    assert plan_of(ReproduceCmd()).ppo.hidden_sizes == (256, 256, 128)
+    changed = plan_of(ReproduceCmd(quick=True, ppo=PPOCfg(num_envs=256), seeds=2))
+    assert changed.ppo.hidden_sizes == (128, 128, 64)
+    assert changed.ppo.num_envs == 256 and changed.seeds == 2
+    wider = plan_of(ReproduceCmd(quick=True, ppo=PPOCfg(hidden_sizes=(64, 64))))
+    assert wider.ppo.hidden_sizes == (64, 64)

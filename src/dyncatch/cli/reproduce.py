@@ -45,7 +45,8 @@ class ReproduceCmd:
     videos: bool = True
     """Write one GIF per behaviour of the sp_rl policy."""
     ppo: PPOCfg = PPOCfg()
-    """PPO hyper-parameters and batch geometry of every run."""
+    """PPO hyper-parameters and batch geometry of every run. A field left at its default
+    takes the profile's value (quick: 128-128-64 networks)."""
     world: WorldCfg = TRAIN_WORLD
     """The simulated world."""
 
@@ -57,9 +58,18 @@ def plan_of(cmd: ReproduceCmd):
     overrides = {
         f.name: getattr(cmd, f.name)
         for f in dataclasses.fields(base)
-        if hasattr(cmd, f.name) and getattr(cmd, f.name) is not None and f.name != "profile"
+        if hasattr(cmd, f.name)
+        and getattr(cmd, f.name) is not None
+        and f.name not in ("profile", "ppo")
     }
-    return validate_plan(dataclasses.replace(base, **overrides))
+    default = PPOCfg()
+    ppo_changed = {
+        f.name: getattr(cmd.ppo, f.name)
+        for f in dataclasses.fields(PPOCfg)
+        if getattr(cmd.ppo, f.name) != getattr(default, f.name)
+    }
+    ppo = dataclasses.replace(base.ppo, **ppo_changed)
+    return validate_plan(dataclasses.replace(base, ppo=ppo, **overrides))
 
 
 def run_reproduce(cmd: ReproduceCmd) -> dict:
