@@ -106,8 +106,10 @@ def _welch_half(sa: list[float], sb: list[float]) -> float:
     return t95(min(len(sa), len(sb)) - 1) * se
 
 
-def _verdict(lo: float, hi: float) -> str:
-    return "holds" if lo > 0 else ("reversed" if hi < 0 else "unresolved (CI spans 0)")
+def _judged(metric: str, difference: float, half: float) -> dict:
+    lo, hi = difference - half, difference + half
+    verdict = "holds" if lo > 0 else ("reversed" if hi < 0 else "unresolved (CI spans 0)")
+    return {"metric": metric, "difference": difference, "ci95": [lo, hi], "verdict": verdict}
 
 
 def gap(a: dict, b: dict) -> dict:
@@ -121,13 +123,7 @@ def gap(a: dict, b: dict) -> dict:
         na, nb = a["episodes"], b["episodes"]
         pa, pb = a["success_rate"], b["success_rate"]
         half = 1.96 * math.sqrt(max(pa * (1 - pa), 1e-12) / na + max(pb * (1 - pb), 1e-12) / nb)
-    lo, hi = d - half, d + half
-    return {
-        "metric": "success_rate",
-        "difference": d,
-        "ci95": [lo, hi],
-        "verdict": _verdict(lo, hi),
-    }
+    return _judged("success_rate", d, half)
 
 
 def time_gap(a: dict, b: dict) -> dict | None:
@@ -137,15 +133,7 @@ def time_gap(a: dict, b: dict) -> dict | None:
     sa, sb = a.get("per_seed_catch_time_s", []), b.get("per_seed_catch_time_s", [])
     if len(sa) < 2 or len(sb) < 2:
         return None
-    d = b["catch_time_s"] - a["catch_time_s"]
-    half = _welch_half(sa, sb)
-    lo, hi = d - half, d + half
-    return {
-        "metric": "catch_time_s",
-        "difference": d,
-        "ci95": [lo, hi],
-        "verdict": _verdict(lo, hi),
-    }
+    return _judged("catch_time_s", b["catch_time_s"] - a["catch_time_s"], _welch_half(sa, sb))
 
 
 ORDERING = (("sp_rl", "rl"), ("sp_rl", "p_rl"), ("sp_rl", "sp_fp"), ("sp_fp", "rl"))
