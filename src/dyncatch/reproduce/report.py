@@ -137,9 +137,10 @@ def plot_fig6(cells: list[dict], methods, path: Path, speed: float) -> None:
     for ax in axes:
         ax.set_xticks(xs, ALL_BEHAVIORS)
         ax.grid(axis="y", alpha=0.3)
-    axes[0].legend(fontsize=8, loc="lower left")
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=len(methods), fontsize=8)
     fig.suptitle(f"Fig. 6 (ours): target speed {speed} m/s, 95 % CIs")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.07, 1, 1))
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
