@@ -18,7 +18,7 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install -q -e '.[dev]'
 	touch $(STAMP)
 
-# The quick reproduction: every stage of `dyncatch reproduce` at a small size (8.9 min measured
+# The quick reproduction: every stage of `dyncatch reproduce` at a small size (8.5 min measured
 # on 2 cores, docs/results.md); re-running skips what is finished.
 demo: $(STAMP)
 	$(BIN)/dyncatch reproduce --quick --out results/quick

@@ -87,7 +87,7 @@ PROFILES: dict[str, Plan] = {
         videos=True,
         # 128-128-64 networks train about 2.4x faster than 256-256-128 on 2 cores, so 0.8 M
         # steps (past the ~0.5 M knee of the full run's learning curves) fit in the 10
-        # minutes: measured 8.9 min, every learned method at 0.73-1.00 success on reactive
+        # minutes: measured 8.5 min, every learned method at 0.73-1.00 success on reactive
         # at 1.8 m/s (one seed, docs/results.md).
         ppo=PPOCfg(hidden_sizes=(128, 128, 64)),
     ),
