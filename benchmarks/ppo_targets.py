@@ -20,34 +20,35 @@ import json
 import time
 from pathlib import Path
 
-from dyncatch.cli.eval import EvalCmd, run_eval
-from dyncatch.cli.predictor import PredictorTrainCmd, run_predictor_train
-from dyncatch.cli.train import TRAIN_WORLD, TrainCmd, run_train
+from dyncatch.evaluation.grid import evaluate_speeds
+from dyncatch.evaluation.resolve import resolve_policy
+from dyncatch.predictor.pipeline import PredictorTrainCfg, train_predictor
 from dyncatch.reproduce.pipeline import time_to_success
-from dyncatch.reproduce.report import COLORS, METHOD_LABEL, read_curve
-from dyncatch.reproduce.stages import PREDICTOR_OF, write_json
+from dyncatch.reproduce.report import color, label, read_curve
+from dyncatch.reproduce.stages import write_json
 from dyncatch.rl.config import PPOCfg
+from dyncatch.rl.methods import get_method
+from dyncatch.rl.runner import TrainRunCfg, TrainRunner
+from dyncatch.sim.config import WorldCfg
 
 BEHAVIOR = "reactive"
 
 
 def predictor_for(out: Path, method: str, steps: int) -> Path | None:
-    kind = PREDICTOR_OF.get(method)
+    kind = get_method(method).predictor_kind
     if kind is None:
         return None
     d = out / f"predictor_{kind}"
     path = d / "predictor.safetensors"
     if not (d / "metrics.json").exists():
-        run_predictor_train(
-            PredictorTrainCmd(behavior=BEHAVIOR, kind=kind, steps=steps, out=d, world=TRAIN_WORLD)
-        )
+        train_predictor(PredictorTrainCfg(behavior=BEHAVIOR, kind=kind, steps=steps, out=d))
     return path
 
 
 def train(out: Path, method: str, args) -> dict:
     d = out / method
     if not (d / "done.json").exists():
-        cmd = TrainCmd(
+        cfg = TrainRunCfg(
             method=method,
             behavior=BEHAVIOR,
             total_steps=args.total_steps,
@@ -62,7 +63,7 @@ def train(out: Path, method: str, args) -> dict:
                 num_minibatches=args.num_minibatches,
             ),
         )
-        write_json(d / "done.json", run_train(cmd))
+        write_json(d / "done.json", TrainRunner(cfg).learn())
     curve = read_curve(d)
     return {
         "method": method,
@@ -79,11 +80,9 @@ def evaluate(out: Path, policy: str, episodes: int) -> list[dict]:
     path = out / "eval" / f"{policy}.json"
     if not path.exists():
         target = str(out / policy) if (out / policy).exists() else policy
-        rows = run_eval(
-            EvalCmd(method=target, behavior=BEHAVIOR, speeds=(1.6, 1.8), episodes=episodes)
-        )
-        for r in rows:
-            r["method"] = policy
+        pol, _, trained_world = resolve_policy(target, WorldCfg())
+        world = trained_world or WorldCfg()
+        rows = evaluate_speeds(pol, world, BEHAVIOR, (1.6, 1.8), episodes, 0, policy)
         write_json(path, rows)
     return json.loads(path.read_text())
 
@@ -97,7 +96,7 @@ def plot(runs: list[dict], path: Path) -> None:
     fig, (ax_t, ax_s) = plt.subplots(1, 2, figsize=(11, 4))
     for r in runs:
         c = r["curve"]
-        style = {"color": COLORS[r["method"]], "label": METHOD_LABEL[r["method"]]}
+        style = {"color": color(r["method"]), "label": label(r["method"])}
         ax_t.plot([t / 60 for t in c["eval_time_s"]], c["eval_success_rate"], **style)
         ax_s.plot([s / 1e6 for s in c["eval_env_steps"]], c["eval_success_rate"], **style)
     for ax, xlabel in ((ax_t, "training wall time (min, 2 CPU cores)"), (ax_s, "samples (M)")):

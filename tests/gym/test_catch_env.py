@@ -17,6 +17,7 @@ from dyncatch.gym.catch_env import CatchEnv, seed_to_key
 from dyncatch.gym.vector_env import CatchVectorEnv
 from dyncatch.sim import env as sim_env
 from dyncatch.sim.behaviors import BEHAVIORS
+from dyncatch.sim.reward import weights
 from dyncatch.sim.validate import ConfigError
 
 NUM_STEPS = 20
@@ -82,9 +83,8 @@ class TestGymnasiumApi:
         assert obs.dtype == np.float32 and obs.shape == (17,)
         assert type(reward) is float and type(terminated) is bool and type(truncated) is bool
         assert type(info["success"]) is bool and type(info["distance_m"]) is float
-        w = env.world.reward
-        terms = ("pursuit", "visibility", "success")
-        expected = sum(getattr(w, k) * info[f"reward/{k}"] for k in terms)
+        w = weights(env.world.reward, env.world.episode.dt_s)
+        expected = sum(w[k] * info[f"reward/{k}"] for k in ("pursuit", "visibility", "success"))
         assert reward == pytest.approx(expected, abs=1e-6)
 
     def test_truncates_itself_at_the_episode_limit(self, env):
@@ -209,3 +209,12 @@ def test_registration_is_idempotent():
     venv = gymnasium.make_vec(CATCH_VECTOR_ID, num_envs=3, behavior="bounce")
     assert isinstance(venv, CatchVectorEnv)
     assert (venv.num_envs, venv.world.target.behavior) == (3, "bounce")
+
+
+def test_gymnasium_make_and_dyncatch_train_share_the_training_reward():
+    from dyncatch.rl.runner import TrainRunCfg
+
+    made = gymnasium.make(CATCH_ID).unwrapped.world
+    assert made.reward == TrainRunCfg().world.reward
+    # The visibility term pays 0.2 per second (0.004 per 50 Hz step), not 0.2 per step.
+    assert weights(made.reward, made.episode.dt_s)["visibility"] == pytest.approx(0.004)

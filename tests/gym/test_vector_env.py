@@ -11,6 +11,7 @@ from gymnasium.vector import AutoresetMode
 
 from dyncatch.gym.catch_env import reset_flat, step_flat
 from dyncatch.gym.vector_env import CatchVectorEnv
+from dyncatch.sim.api import JaxCatchEnv
 from dyncatch.sim.config import EpisodeCfg, WorldCfg
 
 NUM_ENVS = 4
@@ -51,14 +52,14 @@ def test_shapes_and_dtypes(venv):
     np.testing.assert_array_equal(info["final_obs"], np.zeros((NUM_ENVS, 17)))
 
 
-def single_env_rollouts(seed: int, cfg: WorldCfg, num_steps: int) -> np.ndarray:
+def single_env_rollouts(seed: int, env: JaxCatchEnv, num_steps: int) -> np.ndarray:
     """Obs (num_envs, num_steps + 1, 17) of env i started from split(PRNGKey(seed))[i]."""
     rollouts = []
     for key in jax.random.split(jax.random.PRNGKey(seed), NUM_ENVS):
-        state, obs = reset_flat(key, cfg)
+        state, obs = reset_flat(key, env)
         all_obs = [obs]
         for _ in range(num_steps):
-            state, obs, _, _ = step_flat(state, jnp.asarray(ACTION), cfg)
+            state, obs, _, _ = step_flat(state, jnp.asarray(ACTION), env)
             all_obs.append(obs)
         rollouts.append(np.stack(all_obs))
     return np.stack(rollouts)
@@ -66,7 +67,7 @@ def single_env_rollouts(seed: int, cfg: WorldCfg, num_steps: int) -> np.ndarray:
 
 def test_reset_matches_single_env_resets(venv):
     obs, _ = venv.reset(seed=5)
-    np.testing.assert_allclose(obs, single_env_rollouts(5, venv.world, 0)[:, 0], atol=1e-6)
+    np.testing.assert_allclose(obs, single_env_rollouts(5, venv.env, 0)[:, 0], atol=1e-6)
     # The environments are independent: no two start at the same robot position.
     gaps = np.linalg.norm(obs[:, None, :2] - obs[None, :, :2], axis=-1)
     assert gaps[~np.eye(NUM_ENVS, dtype=bool)].min() > 1e-3
@@ -108,7 +109,7 @@ class TestSameStepAutoreset:
     def test_final_obs_is_the_last_obs_of_the_episode(self, short_venv):
         steps = self.run(short_venv, EPISODE_STEPS)
         obs, _, _, _, info = steps[-1]
-        ref = single_env_rollouts(2, SHORT_WORLD, EPISODE_STEPS)[:, -1]
+        ref = single_env_rollouts(2, JaxCatchEnv(SHORT_WORLD), EPISODE_STEPS)[:, -1]
         np.testing.assert_allclose(info["final_obs"], ref, atol=1e-5)
         # Time since the last sighting (index 11): 0.2 s at the end, 0 in the new episode.
         np.testing.assert_allclose(info["final_obs"][:, 11], 0.2, atol=1e-5)

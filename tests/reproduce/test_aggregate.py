@@ -5,6 +5,7 @@ from __future__ import annotations
 import pytest
 
 from dyncatch.reproduce.aggregate import average_column, ordering_checks, summarize_cells
+from dyncatch.rl.methods import paper_claims
 
 
 def _rows(method: str, success: list[float], times: list[float], speed: float = 1.8) -> list:
@@ -47,7 +48,7 @@ class TestOrderingChecks:
         cells = summarize_cells(
             _rows("sp_rl", [1.0, 1.0, 1.0], sp_time) + _rows("rl", [1.0, 1.0, 1.0], rl_time)
         )
-        return {c["metric"]: c for c in ordering_checks(cells, [1.8])}
+        return {c["metric"]: c for c in ordering_checks(cells, [1.8], paper_claims())}
 
     def test_equal_success_is_unresolved_and_a_faster_catch_holds(self):
         checks = self._checks([5.0, 5.2, 5.4], [6.0, 6.2, 6.4])
@@ -66,7 +67,7 @@ class TestOrderingChecks:
 
     def test_one_seed_gives_no_catch_time_check(self):
         cells = summarize_cells(_rows("sp_rl", [0.9], [5.0]) + _rows("rl", [0.5], [9.0]))
-        checks = ordering_checks(cells, [1.8])
+        checks = ordering_checks(cells, [1.8], paper_claims())
         assert [c["metric"] for c in checks] == ["success_rate"]
         # pooled episodes: 0.4 +- 1.96 * sqrt(0.09/100 + 0.25/100) = 0.4 +- 0.1143
         assert checks[0]["ci95"] == pytest.approx([0.4 - 0.11429, 0.4 + 0.11429], abs=1e-4)

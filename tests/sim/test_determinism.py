@@ -5,6 +5,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from dyncatch.sim import env, vec
+from dyncatch.sim.api import JaxCatchEnv
 from dyncatch.sim.config import WorldCfg
 
 CFG = WorldCfg()
@@ -16,7 +17,7 @@ def _actions():
 
 
 def _batched(key):
-    state = vec.batch_reset(key, CFG, N)
+    state = vec.batch_reset(key, JaxCatchEnv(CFG), N)
     step = jax.jit(jax.vmap(env.step, in_axes=(0, 0, None)))
     out = []
     for a in _actions():
@@ -49,10 +50,10 @@ def test_jit_vmap_step_equals_a_plain_loop_over_envs():
 
 def test_auto_reset_starts_a_new_episode_where_one_ends():
     cfg = CFG.replace(episode=CFG.episode.replace(duration_s=0.2))  # 10 steps
-    state = vec.batch_reset(jax.random.key(0), cfg, 3)
+    state = vec.batch_reset(jax.random.key(0), JaxCatchEnv(cfg), 3)
     step = jax.jit(vec.batch_step)
     for _t in range(10):
-        state, obs, reward, done, info = step(state, jnp.zeros((3, 3)), cfg)
+        state, obs, reward, done, info = step(state, jnp.zeros((3, 3)), JaxCatchEnv(cfg))
     assert bool(jnp.all(done)) and bool(jnp.all(info["truncated"]))
     assert bool(jnp.all(state.step == 0))
     # The finished episode's last observation differs from the new first one.

@@ -8,18 +8,18 @@ from functools import partial
 import jax
 import numpy as np
 
-from dyncatch.sim.base import command_high, command_low
+from dyncatch.sim.api import JaxCatchEnv
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.vec import batch_reset, batch_step
 
 
 @partial(jax.jit, static_argnames=("num_envs", "num_steps"))
-def _random_action_rollout(state, key, cfg: WorldCfg, num_envs: int, num_steps: int):
-    lo, hi = command_low(cfg.base), command_high(cfg.base)
+def _random_action_rollout(state, key, env: JaxCatchEnv, num_envs: int, num_steps: int):
+    spec = env.action_spec
 
     def body(s, k):
-        action = jax.random.uniform(k, (num_envs, 3), minval=lo, maxval=hi)
-        s, _, reward, _, _ = batch_step(s, action, cfg)
+        action = jax.random.uniform(k, (num_envs, *spec.shape), minval=spec.low, maxval=spec.high)
+        s, _, reward, _, _ = batch_step(s, action, env)
         return s, reward.sum()
 
     return jax.lax.scan(body, state, jax.random.split(key, num_steps))
@@ -28,13 +28,14 @@ def _random_action_rollout(state, key, cfg: WorldCfg, num_envs: int, num_steps: 
 def jax_steps_per_s(cfg: WorldCfg, num_envs: int, min_steps: int = 500_000, repeats: int = 3):
     """Best of ``repeats`` timed runs of a jitted scan (compilation excluded)."""
     num_steps = int(np.clip(min_steps // num_envs, 50, 5000))
-    state = batch_reset(jax.random.key(0), cfg, num_envs)
-    out = _random_action_rollout(state, jax.random.key(1), cfg, num_envs, num_steps)
+    env = JaxCatchEnv(cfg)
+    state = batch_reset(jax.random.key(0), env, num_envs)
+    out = _random_action_rollout(state, jax.random.key(1), env, num_envs, num_steps)
     jax.block_until_ready(out)
     best = float("inf")
     for r in range(repeats):
         t0 = time.perf_counter()
-        out = _random_action_rollout(out[0], jax.random.key(2 + r), cfg, num_envs, num_steps)
+        out = _random_action_rollout(out[0], jax.random.key(2 + r), env, num_envs, num_steps)
         jax.block_until_ready(out)
         best = min(best, time.perf_counter() - t0)
     return num_envs * num_steps / best

@@ -93,10 +93,11 @@ def ppo_samples_per_s(init, iterate, ppo: PPOCfg, iterations: int, repeats: int 
     return iterations * ppo.batch_size / best
 
 
-def run_ppo_benchmark(world, ppo: PPOCfg, obs_fn, obs_dim: int, iterations: int, predictor_flops=0):
+def run_ppo_benchmark(env, ppo: PPOCfg, obs_fn, obs_dim: int, iterations: int, predictor_flops=0):
+    """``env``: an environment (``dyncatch.sim.api``) or a world."""
     from dyncatch.rl.train import make_train
 
-    init, iterate, _ = make_train(world, ppo, obs_fn)
+    init, iterate, _ = make_train(env, ppo, obs_fn)
     samples = ppo_samples_per_s(jax.jit(init), jax.jit(iterate), ppo, iterations)
     flops = ppo_flops_per_sample(obs_dim, ppo, predictor_flops)
     k_in, k_out = largest_layer(obs_dim, ppo)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import dataclasses
 import json
 
-from dyncatch.cli.train import TRAIN_WORLD
 from dyncatch.rl.config import PPOCfg
 from dyncatch.sim.config import WorldCfg
 
@@ -67,7 +66,7 @@ class PPOBenchCmd:
     """Print one JSON object instead of a table."""
     ppo: PPOCfg = PPOCfg()
     """PPO hyper-parameters and batch geometry (the thing being measured)."""
-    world: WorldCfg = TRAIN_WORLD
+    world: WorldCfg = WorldCfg()
     """The simulated world."""
 
 
@@ -79,25 +78,27 @@ def run_ppo_bench(cmd: PPOBenchCmd) -> dict:
     from dyncatch.predictor.config import PredictorCfg
     from dyncatch.predictor.model import Predictor
     from dyncatch.rl.config import validate_ppo
-    from dyncatch.rl.methods import get_method, method_obs
-    from dyncatch.sim.env import observe, reset
+    from dyncatch.rl.methods import get_method
+    from dyncatch.sim.api import JaxCatchEnv
     from dyncatch.sim.validate import validate_world
 
     world = validate_world(cmd.world.with_behavior(cmd.behavior))
     ppo = validate_ppo(cmd.ppo)
     if cmd.iterations < 1:
         raise ValueError(f"--iterations must be >= 1, got {cmd.iterations}")
-    kind = get_method(cmd.method).velocity_input
+    method = get_method(cmd.method)
+    kind = method.predictor_kind
     predictor = params = None
     pred_flops = 0
-    if kind not in (None, "ground_truth"):
+    if kind is not None:
         predictor = Predictor.for_world(PredictorCfg(kind=kind), world)
         params = predictor.init(jax.random.key(0))
         pred_flops = mlp_flops([predictor.input_dim, *predictor.cfg.hidden, 2])
-    obs_fn = method_obs(cmd.method, predictor, params)
-    state = reset(jax.random.key(0), world)
-    obs_dim = int(obs_fn(state, observe(state, world)).shape[0])
-    result = run_ppo_benchmark(world, ppo, obs_fn, obs_dim, cmd.iterations, pred_flops)
+    obs_fn = method.obs_fn(predictor, params)
+    env = JaxCatchEnv(world)
+    state = env.reset(jax.random.key(0))
+    obs_dim = int(obs_fn(state, env.observe(state)).shape[0])
+    result = run_ppo_benchmark(env, ppo, obs_fn, obs_dim, cmd.iterations, pred_flops)
     result.update(
         {
             "method": cmd.method,

@@ -1,7 +1,11 @@
 """The registry of sub-commands.
 
 A command is a frozen dataclass (its fields are the flags) and the function that runs it;
-a group (``dyncatch bench env``) is a dict of commands under one name.
+a group (``dyncatch bench env``) is a dict of commands under one name. A command whose
+defaults depend on a flag (``reproduce --quick`` picks a profile, ``eval RUN`` starts from
+the run's world) has a ``refine``: the command line is parsed once, ``refine`` turns that
+into the defaults, and the command line is parsed again on top of them, so every flag given
+overrides, even one equal to the library default.
 """
 
 from __future__ import annotations
@@ -12,22 +16,22 @@ from typing import Any
 
 from dyncatch.cli.bench import EnvBenchCmd, PPOBenchCmd, run_env_bench, run_ppo_bench
 from dyncatch.cli.demo import DemoCmd, run_demo
-from dyncatch.cli.eval import EvalCmd, run_eval
-from dyncatch.cli.predictor import (
-    PredictorTableCmd,
-    PredictorTrainCmd,
-    run_predictor_table,
-    run_predictor_train,
-)
+from dyncatch.cli.eval import EvalCmd, run_eval, run_world_default
+from dyncatch.cli.predictor import PredictorTableCmd, run_predictor_table, run_predictor_train
 from dyncatch.cli.render import RenderCmd, run_render
-from dyncatch.cli.reproduce import ReproduceCmd, run_reproduce
-from dyncatch.cli.train import TrainCmd, run_train
+from dyncatch.cli.reproduce import run_reproduce
+from dyncatch.cli.train import run_train
+from dyncatch.predictor.pipeline import PredictorTrainCfg
+from dyncatch.reproduce.plan import Plan, profile_default
+from dyncatch.rl.runner import TrainRunCfg
 
 
 @dataclass(frozen=True)
 class Command:
     spec: type
     run: Callable[[Any], Any]
+    refine: Callable[[Any], Any] | None = None
+    """First parse -> the defaults of the second (see the module docstring)."""
 
 
 @dataclass(frozen=True)
@@ -39,9 +43,9 @@ class Group:
 COMMANDS: dict[str, Command | Group] = {
     "demo": Command(DemoCmd, run_demo),
     "render": Command(RenderCmd, run_render),
-    "train": Command(TrainCmd, run_train),
-    "eval": Command(EvalCmd, run_eval),
-    "reproduce": Command(ReproduceCmd, run_reproduce),
+    "train": Command(TrainRunCfg, run_train),
+    "eval": Command(EvalCmd, run_eval, run_world_default),
+    "reproduce": Command(Plan, run_reproduce, profile_default),
     "bench": Group(
         "Throughput benchmarks.",
         {"env": Command(EnvBenchCmd, run_env_bench), "ppo": Command(PPOBenchCmd, run_ppo_bench)},
@@ -49,7 +53,7 @@ COMMANDS: dict[str, Command | Group] = {
     "predictor": Group(
         "The target-behaviour predictor (Section III-B, Table II).",
         {
-            "train": Command(PredictorTrainCmd, run_predictor_train),
+            "train": Command(PredictorTrainCfg, run_predictor_train),
             "table": Command(PredictorTableCmd, run_predictor_table),
         },
     ),

@@ -1,4 +1,8 @@
-"""``dyncatch eval RUN_OR_METHOD``: success rate and catch time per target speed (Table I)."""
+"""``dyncatch eval RUN_OR_METHOD``: success rate and catch time per target speed (Table I).
+
+A run is evaluated in the world it was trained in; ``--world.*`` flags apply on top of it
+(a first generalisation test), and the output says which fields differ.
+"""
 
 from __future__ import annotations
 
@@ -30,56 +34,63 @@ class EvalCmd:
     predictor: Path | None = None
     """Predictor checkpoint, overriding the one the run was trained with (needed for sp_fp)."""
     json: bool = False
-    """Print one JSON object {"rows": [...]} instead of a table."""
+    """Print one JSON object {"rows": [...], "world_changes": {...}} instead of a table."""
     world: WorldCfg = WorldCfg()
-    """The simulated world of the baselines (a run is evaluated in the world it was trained in)."""
+    """The simulated world: a run's training world, with any --world.* flag on top of it
+    (baselines: the library default)."""
 
 
-def resolve(target: str, world: WorldCfg, as_method=None, predictor=None):
-    """(policy, method name, world) for a baseline name or a run folder."""
-    from dyncatch.policies.registry import BASELINES
-    from dyncatch.rl.methods import METHODS
+def _run_world(target: str) -> WorldCfg | None:
+    """The training world recorded in a run folder's checkpoint, or None if not a run."""
+    from dyncatch.rl.policy import checkpoint_path
+    from dyncatch.utils.config_io import from_dict
+    from dyncatch.utils.tree_io import read_header
 
-    if target in BASELINES:
-        if as_method is not None:
-            raise ValueError("--as-method applies to trained runs, not to baselines")
-        return BASELINES[target](world), target, world
-    if target in METHODS:
-        raise ValueError(
-            f"{target!r} is a learned method: train it (dyncatch train --method "
-            f"{METHODS[target].trained_as or target} --out runs/NAME) and pass the run folder"
-        )
-    if not Path(target).exists():
-        raise ValueError(
-            f"unknown method or run {target!r}: baselines are {', '.join(BASELINES)}; "
-            "a learned method is evaluated from its run folder"
-        )
-    from dyncatch.rl.policy import load_run
-
-    run = load_run(target, as_method, predictor)
-    return run.policy, run.method, run.world
+    path = checkpoint_path(target)
+    if not path.is_file():
+        return None
+    return from_dict(WorldCfg, read_header(path)["world"], "world")
 
 
-def run_eval(cmd: EvalCmd) -> list[dict]:
+def run_world_default(cmd: EvalCmd) -> EvalCmd:
+    """The command's defaults with a run's training world in place of the library's."""
+    world = _run_world(cmd.method)
+    return cmd if world is None else dataclasses.replace(cmd, world=world)
+
+
+def run_eval(cmd: EvalCmd) -> dict:
     from dyncatch.evaluation.grid import evaluate_speeds
+    from dyncatch.evaluation.resolve import resolve_policy
     from dyncatch.sim.validate import validate_world
+    from dyncatch.utils.config_io import config_diff
 
     if cmd.episodes < 1:
         raise ValueError(f"--episodes must be >= 1, got {cmd.episodes}")
     if any(v < 0 for v in cmd.speeds):
         raise ValueError(f"--speeds must be non-negative, got {cmd.speeds}")
-    policy, method, world = resolve(cmd.method, cmd.world, cmd.as_method, cmd.predictor)
-    world = validate_world(world.with_behavior(cmd.behavior))
+    policy, method, trained_world = resolve_policy(
+        cmd.method, cmd.world, cmd.as_method, cmd.predictor
+    )
+    world = validate_world(cmd.world.with_behavior(cmd.behavior))
+    # Speeds are set per row, so they are no change of world.
+    changes = {}
+    if trained_world is not None:
+        diff = config_diff(trained_world, world)
+        changes = {k: v for k, v in diff.items() if not k.startswith("target.speed_")}
     rows = evaluate_speeds(policy, world, cmd.behavior, cmd.speeds, cmd.episodes, cmd.seed, method)
+    result = {"rows": rows, "world_changes": {k: list(v) for k, v in changes.items()}}
     if cmd.json:
-        print(json.dumps({"rows": rows}))
-    else:
-        print(f"{method} vs {cmd.behavior}, {cmd.episodes} episodes per speed")
-        print("| speed (m/s) | success [95% CI] | catch time (s) |\n|---:|---|---:|")
-        for r in rows:
-            lo, hi = r["success_ci95"]
-            print(
-                f"| {r['speed_mps']:.1f} | {r['success_rate']:.3f} [{lo:.3f}, {hi:.3f}] | "
-                f"{r['catch_time_s']:.2f} |"
-            )
-    return rows
+        print(json.dumps(result))
+        return result
+    print(f"{method} vs {cmd.behavior}, {cmd.episodes} episodes per speed")
+    if changes:
+        shown = ", ".join(f"{k} {a} -> {b}" for k, (a, b) in changes.items())
+        print(f"evaluated in another world than it was trained in: {shown}")
+    print("| speed (m/s) | success [95% CI] | catch time (s) |\n|---:|---|---:|")
+    for r in rows:
+        lo, hi = r["success_ci95"]
+        print(
+            f"| {r['speed_mps']:.1f} | {r['success_rate']:.3f} [{lo:.3f}, {hi:.3f}] | "
+            f"{r['catch_time_s']:.2f} |"
+        )
+    return result

@@ -21,6 +21,13 @@ def _group_stub(name: str, group: Group) -> type:
 def parse(argv: list[str]) -> tuple[Command, object]:
     import tyro
 
+    if argv and isinstance(COMMANDS.get(argv[0]), Command):
+        command: Command = COMMANDS[argv[0]]  # type: ignore[assignment]
+        prog = f"dyncatch {argv[0]}"
+        cmd = tyro.cli(command.spec, args=argv[1:], prog=prog)
+        if command.refine is not None:
+            cmd = tyro.cli(command.spec, args=argv[1:], prog=prog, default=command.refine(cmd))
+        return command, cmd
     if argv and isinstance(COMMANDS.get(argv[0]), Group):
         group: Group = COMMANDS[argv[0]]  # type: ignore[assignment]
         specs = {name: c.spec for name, c in group.commands.items()}
@@ -44,9 +51,9 @@ def main(argv: list[str] | None = None) -> int:
     from dyncatch.sim.validate import ConfigError
     from dyncatch.utils.jax_setup import setup_jax
 
-    command, cmd = parse(sys.argv[1:] if argv is None else argv)
-    setup_jax()
     try:
+        command, cmd = parse(sys.argv[1:] if argv is None else argv)
+        setup_jax()
         command.run(cmd)
     except (ConfigError, FileNotFoundError, ValueError) as err:
         print(f"dyncatch: error: {err}", file=sys.stderr)

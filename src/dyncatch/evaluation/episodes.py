@@ -12,15 +12,17 @@ import jax
 import jax.numpy as jnp
 
 from dyncatch.policies.api import as_recurrent
+from dyncatch.sim.api import Environment, as_env
 from dyncatch.sim.config import WorldCfg
-from dyncatch.sim.env import observe, reset, step
 
 
-def _run_impl(policy: Callable, key: jax.Array, cfg: WorldCfg, num_episodes: int, num_steps: int):
+def _run_impl(
+    policy: Callable, key: jax.Array, env: Environment, num_episodes: int, num_steps: int
+):
     k_reset, k_act = jax.random.split(key)
-    state = jax.vmap(reset, in_axes=(0, None))(jax.random.split(k_reset, num_episodes), cfg)
-    obs = jax.vmap(observe, in_axes=(0, None))(state, cfg)
-    vstep = jax.vmap(step, in_axes=(0, 0, None))
+    state = jax.vmap(env.reset)(jax.random.split(k_reset, num_episodes))
+    obs = jax.vmap(env.observe)(state)
+    vstep = jax.vmap(env.step)
     pol = as_recurrent(policy)
     vpolicy = jax.vmap(pol.step)
 
@@ -28,7 +30,7 @@ def _run_impl(policy: Callable, key: jax.Array, cfg: WorldCfg, num_episodes: int
         state, obs, pcarry, done, success, steps, ret = carry
         keys = jax.random.split(jax.random.fold_in(k_act, t), num_episodes)
         pcarry, action = vpolicy(pcarry, state, obs, keys)
-        state, obs, reward, now_done, info = vstep(state, action, cfg)
+        state, obs, reward, now_done, info = vstep(state, action)
         live = ~done
         success = success | (live & info["success"])
         steps = steps + live.astype(jnp.int32)
@@ -50,21 +52,23 @@ _run_pytree = jax.jit(_run_impl, static_argnames=("num_episodes", "num_steps"))
 checkpoint of one architecture reuses one compilation."""
 
 
-def _run(policy, key, cfg, num_episodes: int, num_steps: int):
+def _run(policy, key, env: Environment, num_episodes: int, num_steps: int):
     run = _run_pytree if getattr(policy, "is_pytree_policy", False) else _run_static
-    return run(policy, key, cfg, num_episodes, num_steps)
+    return run(policy, key, env, num_episodes, num_steps)
 
 
 def run_episodes(
-    policy: Callable, key: jax.Array, cfg: WorldCfg, num_episodes: int
+    policy: Callable, key: jax.Array, env: Environment | WorldCfg, num_episodes: int
 ) -> dict[str, jax.Array]:
-    """Play ``num_episodes`` episodes of a policy (see ``dyncatch.policies.api``).
+    """Play ``num_episodes`` episodes of a policy (see ``dyncatch.policies.api``) in ``env``
+    (a backend of ``dyncatch.sim.api``; a ``WorldCfg`` means the JAX world).
 
     Returns ``success`` (N,) bool, ``catch_time_s`` (N,) (the episode limit on failure, as
     in the paper) and ``return`` (N,).
     """
-    num_steps = int(cfg.episode.max_steps)
-    success, steps, ret = _run(policy, key, cfg, num_episodes, num_steps)
-    dt = cfg.episode.dt_s
+    env = as_env(env)
+    num_steps = int(env.world.episode.max_steps)
+    success, steps, ret = _run(policy, key, env, num_episodes, num_steps)
+    dt = env.world.episode.dt_s
     catch_time = jnp.where(success, steps * dt, num_steps * dt)
     return {"success": success, "catch_time_s": catch_time, "return": ret}

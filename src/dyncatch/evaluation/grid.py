@@ -6,6 +6,7 @@ import jax
 
 from dyncatch.evaluation.episodes import run_episodes
 from dyncatch.evaluation.stats import summarize
+from dyncatch.sim.api import Environment, as_env
 from dyncatch.sim.config import WorldCfg
 
 EVAL_STREAM = 0x5EED_E7A1
@@ -14,14 +15,21 @@ keys (which come from ``jax.random.key(seed)`` directly)."""
 
 
 def evaluate_speeds(
-    policy, world: WorldCfg, behavior: str, speeds_mps, episodes: int, seed: int, method: str
+    policy,
+    env: Environment | WorldCfg,
+    behavior: str,
+    speeds_mps,
+    episodes: int,
+    seed: int,
+    method: str,
 ) -> list[dict]:
     """One row per speed: success rate with a Wilson 95 % CI and mean catch time."""
+    env = as_env(env)
     key = jax.random.fold_in(jax.random.key(seed), EVAL_STREAM)
     rows = []
     for i, speed in enumerate(speeds_mps):
-        cfg = world.with_behavior(behavior).with_speed(speed)
-        s = summarize(run_episodes(policy, jax.random.fold_in(key, i), cfg, episodes))
+        cell = env.with_world(env.world.with_behavior(behavior).with_speed(speed))
+        s = summarize(run_episodes(policy, jax.random.fold_in(key, i), cell, episodes))
         rows.append(
             {
                 "method": method,

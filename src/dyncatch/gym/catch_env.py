@@ -15,10 +15,8 @@ import jax.numpy as jnp
 import numpy as np
 from gymnasium import spaces
 
-from dyncatch.sim import env as sim_env
-from dyncatch.sim.base import command_high, command_low
+from dyncatch.sim.api import Environment, JaxCatchEnv
 from dyncatch.sim.config import WorldCfg
-from dyncatch.sim.state import ACTION_DIM, OBS_DIM, EnvState
 from dyncatch.sim.validate import validate_world
 
 _UINT32 = 2**32
@@ -40,46 +38,55 @@ def seed_to_key(seed: int) -> jax.Array:
     return key
 
 
-def make_world(
-    behavior: str = "reactive", world: WorldCfg | None = None, speed_mps: float | None = None
-) -> WorldCfg:
-    """``world`` (default ``WorldCfg()``) with its behaviour set and, if given, a fixed
-    target speed; validated, so a bad value fails here and not inside jitted code."""
-    cfg = (world if world is not None else WorldCfg()).with_behavior(behavior)
+def make_env(
+    behavior: str = "reactive",
+    world: WorldCfg | None = None,
+    speed_mps: float | None = None,
+    env: Environment | None = None,
+) -> Environment:
+    """The backend an adapter steps: ``env`` (default the JAX world ``JaxCatchEnv``) in
+    ``world`` (default ``env.world``, else ``WorldCfg()``, the library's training default)
+    with its behaviour set and, if given, a fixed target speed; validated, so a bad value
+    fails here and not inside jitted code."""
+    env = env if env is not None else JaxCatchEnv()
+    cfg = (world if world is not None else env.world).with_behavior(behavior)
     if speed_mps is not None:
         cfg = cfg.with_speed(float(speed_mps))
-    return validate_world(cfg)
+    return env.with_world(validate_world(cfg))
 
 
-def observation_space() -> spaces.Box:
-    """Unbounded float32 Box of shape (OBS_DIM,) = (17,); the layout is ``Obs.flat``."""
-    return spaces.Box(-np.inf, np.inf, (OBS_DIM,), np.float32)
+def _box(spec) -> spaces.Box:
+    low, high = np.asarray(spec.low, np.float32), np.asarray(spec.high, np.float32)
+    return spaces.Box(low, high, spec.shape, np.float32)
 
 
-def action_space(cfg: WorldCfg) -> spaces.Box:
-    """The base command (vx, vy, yaw rate) in m/s and rad/s, (ACTION_DIM,) = (3,)."""
-    low = np.asarray(command_low(cfg.base), np.float32)
-    high = np.asarray(command_high(cfg.base), np.float32)
-    return spaces.Box(low, high, (ACTION_DIM,), np.float32)
+def observation_space(env: Environment) -> spaces.Box:
+    """float32 Box of ``env.observation_spec`` (the JAX world: unbounded, (17,), ``Obs.flat``)."""
+    return _box(env.observation_spec)
 
 
-def _reset_flat(key: jax.Array, cfg: WorldCfg) -> tuple[EnvState, jax.Array]:
-    state = sim_env.reset(key, cfg)
-    return state, sim_env.observe(state, cfg).flat
+def action_space(env: Environment) -> spaces.Box:
+    """The base command (vx, vy, yaw rate) in m/s and rad/s: ``env.action_spec``, (3,)."""
+    return _box(env.action_spec)
 
 
-def _step_flat(state: EnvState, action: jax.Array, cfg: WorldCfg):
-    state, obs, reward, _, info = sim_env.step(state, action, cfg)
+def _reset_flat(key: jax.Array, env: Environment):
+    state = env.reset(key)
+    return state, env.observe(state).flat
+
+
+def _step_flat(state, action: jax.Array, env: Environment):
+    state, obs, reward, _, info = env.step(state, action)
     return state, obs.flat, reward, info
 
 
 # Module-level so every instance with the same static config shares one compilation; the
-# config is an argument, so its numeric fields can change without recompiling.
+# environment is an argument, so its numeric fields can change without recompiling.
 reset_flat = jax.jit(_reset_flat)
-"""Jitted ``(key, cfg) -> (state, obs (17,))``: ``sim.env.reset`` with the flat observation."""
+"""Jitted ``(key, env) -> (state, obs (D,))``: ``env.reset`` with the flat observation."""
 
 step_flat = jax.jit(_step_flat)
-"""Jitted ``(state, action (3,), cfg) -> (state, obs (17,), reward (), info)``: ``sim.env.step``
+"""Jitted ``(state, action (3,), env) -> (state, obs (D,), reward (), info)``: ``env.step``
 with the flat observation; ``info["terminated"]`` and ``info["truncated"]`` give ``done``."""
 
 
@@ -94,9 +101,11 @@ class CatchEnv(gymnasium.Env[np.ndarray, np.ndarray]):
     Args:
         behavior: target behaviour, a key of ``dyncatch.sim.behaviors.BEHAVIORS``; it
             replaces ``world.target.behavior``.
-        world: the world config (default ``WorldCfg()``).
+        world: the world config (default ``WorldCfg()``, the library's training default,
+            the same reward ``dyncatch train`` uses).
         speed_mps: fix the target speed (``WorldCfg.with_speed``); None keeps the range.
         render_mode: only None (no renderer yet).
+        env: the backend (``dyncatch.sim.api``); default the JAX world.
 
     ``reset(seed=s)`` starts from ``seed_to_key(s)``; ``reset()`` draws a key from
     ``self.np_random``, so ``reset(seed=s)`` followed by resets without seed is a
@@ -111,18 +120,20 @@ class CatchEnv(gymnasium.Env[np.ndarray, np.ndarray]):
         world: WorldCfg | None = None,
         speed_mps: float | None = None,
         render_mode: str | None = None,
+        env: Environment | None = None,
     ) -> None:
         if render_mode is not None:
             raise ValueError(f"render_mode {render_mode!r} is not supported; use None")
-        self.world = make_world(behavior, world, speed_mps)
+        self.env = make_env(behavior, world, speed_mps, env)
+        self.world = self.env.world
         self.render_mode = render_mode
         self.metadata = {**self.metadata, "render_fps": self.world.episode.control_hz}
-        self.observation_space = observation_space()
-        self.action_space = action_space(self.world)
-        self._state: EnvState | None = None
+        self.observation_space = observation_space(self.env)
+        self.action_space = action_space(self.env)
+        self._state = None
 
     @property
-    def state(self) -> EnvState:
+    def state(self):
         """The simulator state (a pytree of JAX arrays); only after ``reset``."""
         if self._state is None:
             raise RuntimeError("call reset() before using the environment")
@@ -135,7 +146,7 @@ class CatchEnv(gymnasium.Env[np.ndarray, np.ndarray]):
         super().reset(seed=seed)
         if seed is None:
             seed = int(self.np_random.integers(_UINT32))
-        self._state, obs = reset_flat(seed_to_key(seed), self.world)
+        self._state, obs = reset_flat(seed_to_key(seed), self.env)
         return np.array(obs, np.float32), {}
 
     def step(
@@ -148,9 +159,11 @@ class CatchEnv(gymnasium.Env[np.ndarray, np.ndarray]):
         ``truncated``, ``distance_m``, ...; see ``sim.env.step``) as Python scalars.
         """
         action = np.asarray(action, np.float32)
-        if action.shape != (ACTION_DIM,):
-            raise ValueError(f"action must have shape ({ACTION_DIM},), got {action.shape}")
-        self._state, obs, reward, info = step_flat(self.state, jnp.asarray(action), self.world)
+        if action.shape != self.action_space.shape:
+            raise ValueError(
+                f"action must have shape {self.action_space.shape}, got {action.shape}"
+            )
+        self._state, obs, reward, info = step_flat(self.state, jnp.asarray(action), self.env)
         obs, reward, info = jax.device_get((obs, reward, info))
         info = to_python_info(info)
         return (

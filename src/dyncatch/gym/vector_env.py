@@ -17,21 +17,21 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
-from dyncatch.gym.catch_env import _UINT32, action_space, make_world, observation_space, seed_to_key
+from dyncatch.gym.catch_env import _UINT32, action_space, make_env, observation_space, seed_to_key
+from dyncatch.sim.api import Environment
 from dyncatch.sim.config import WorldCfg
-from dyncatch.sim.state import ACTION_DIM, EnvState
 from dyncatch.sim.vec import batch_observe, batch_reset, batch_step
 
 
 @partial(jax.jit, static_argnames="num_envs")
-def _reset_flat(key: jax.Array, cfg: WorldCfg, num_envs: int) -> tuple[EnvState, jax.Array]:
-    state = batch_reset(key, cfg, num_envs)
-    return state, batch_observe(state, cfg).flat
+def _reset_flat(key: jax.Array, env: Environment, num_envs: int):
+    state = batch_reset(key, env, num_envs)
+    return state, batch_observe(state, env).flat
 
 
 @jax.jit
-def _step_flat(state: EnvState, actions: jax.Array, cfg: WorldCfg):
-    state, obs, reward, done, info = batch_step(state, actions, cfg)
+def _step_flat(state, actions: jax.Array, env: Environment):
+    state, obs, reward, done, info = batch_step(state, actions, env)
     final_obs = jnp.where(done[:, None], info.pop("final_obs").flat, 0.0)
     return state, obs.flat, reward, done, final_obs, info
 
@@ -41,7 +41,7 @@ class CatchVectorEnv(gymnasium.vector.VectorEnv):
 
     Args:
         num_envs: number of environments, the leading axis of every array.
-        behavior, world, speed_mps, render_mode: as for ``CatchEnv``.
+        behavior, world, speed_mps, render_mode, env: as for ``CatchEnv``.
 
     ``step`` returns obs (num_envs, 17) float32, rewards (num_envs,) float32, terminations
     and truncations (num_envs,) bool, and info with one (num_envs,) array per key of the
@@ -60,22 +60,24 @@ class CatchVectorEnv(gymnasium.vector.VectorEnv):
         world: WorldCfg | None = None,
         speed_mps: float | None = None,
         render_mode: str | None = None,
+        env: Environment | None = None,
     ) -> None:
         if num_envs < 1:
             raise ValueError(f"num_envs must be at least 1, got {num_envs}")
         if render_mode is not None:
             raise ValueError(f"render_mode {render_mode!r} is not supported; use None")
         self.num_envs = int(num_envs)
-        self.world = make_world(behavior, world, speed_mps)
+        self.env = make_env(behavior, world, speed_mps, env)
+        self.world = self.env.world
         self.render_mode = render_mode
-        self.single_observation_space = observation_space()
-        self.single_action_space = action_space(self.world)
+        self.single_observation_space = observation_space(self.env)
+        self.single_action_space = action_space(self.env)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
-        self._state: EnvState | None = None
+        self._state = None
 
     @property
-    def state(self) -> EnvState:
+    def state(self):
         """The batched simulator state (leading axis num_envs); only after ``reset``."""
         if self._state is None:
             raise RuntimeError("call reset() before using the environment")
@@ -88,7 +90,7 @@ class CatchVectorEnv(gymnasium.vector.VectorEnv):
         super().reset(seed=seed)
         if seed is None:
             seed = int(self.np_random.integers(_UINT32))
-        self._state, obs = _reset_flat(seed_to_key(seed), self.world, self.num_envs)
+        self._state, obs = _reset_flat(seed_to_key(seed), self.env, self.num_envs)
         return np.array(obs, np.float32), {}
 
     def step(
@@ -96,11 +98,11 @@ class CatchVectorEnv(gymnasium.vector.VectorEnv):
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """One control step of every environment under ``actions`` (num_envs, 3)."""
         actions = np.asarray(actions, np.float32)
-        if actions.shape != (self.num_envs, ACTION_DIM):
+        if actions.shape != self.action_space.shape:
             raise ValueError(
-                f"actions must have shape ({self.num_envs}, {ACTION_DIM}), got {actions.shape}"
+                f"actions must have shape {self.action_space.shape}, got {actions.shape}"
             )
-        self._state, *out = _step_flat(self.state, jnp.asarray(actions), self.world)
+        self._state, *out = _step_flat(self.state, jnp.asarray(actions), self.env)
         obs, reward, done, final_obs, step_info = jax.device_get(out)
         info: dict[str, Any] = {k: np.array(v) for k, v in step_info.items()}
         info["final_obs"] = np.array(final_obs, np.float32)

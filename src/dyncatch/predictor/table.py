@@ -10,7 +10,7 @@ from __future__ import annotations
 import csv
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import jax
@@ -33,14 +33,29 @@ PAPER_TABLE_II: dict[tuple[str, str], tuple[float, ...]] = {
 PAPER_BUDGETS = (200_000, 500_000, 1_000_000, 2_000_000)
 
 
+def all_behaviors() -> tuple[str, ...]:
+    """Every registered target behaviour, read when called (a behaviour registered at run
+    time is included)."""
+    from dyncatch.sim.behaviors import BEHAVIORS
+
+    return tuple(BEHAVIORS)
+
+
+def all_kinds() -> tuple[str, ...]:
+    """Every predictor kind (``dyncatch.predictor.features.FEATURES``)."""
+    from dyncatch.predictor.features import FEATURES
+
+    return tuple(FEATURES)
+
+
 @dataclass(frozen=True)
 class TableCfg:
     """The grid of Table II."""
 
-    behaviors: tuple[str, ...] = ("circle", "bounce", "reactive", "random_reactive")
-    """Rows: target behaviours."""
-    kinds: tuple[str, ...] = ("vanilla", "self_aware")
-    """Predictor kinds per behaviour."""
+    behaviors: tuple[str, ...] = field(default_factory=all_behaviors)
+    """Rows: target behaviours (default every registered one)."""
+    kinds: tuple[str, ...] = field(default_factory=all_kinds)
+    """Predictor kinds per behaviour (default every kind)."""
     budgets: tuple[int, ...] = PAPER_BUDGETS
     """Columns: interaction budgets in simulator steps."""
     eval_steps: int = 500_000
@@ -137,8 +152,10 @@ def write(rows: list[dict], out: Path, header: str = "") -> list[Path]:
         writer.writeheader()
         writer.writerows(rows)
     fig, ax = plt.subplots(figsize=(7, 4.5))
+    styles = ("--", "-", ":", "-.")
+    kinds = list(dict.fromkeys(r["kind"] for r in rows))
     for behavior in dict.fromkeys(r["behavior"] for r in rows):
-        for kind, style in (("vanilla", "--"), ("self_aware", "-")):
+        for kind, style in zip(kinds, styles * len(kinds), strict=False):
             sel = [r for r in rows if r["behavior"] == behavior and r["kind"] == kind]
             if sel:
                 xs = [r["budget_steps"] / 1e6 for r in sel]

@@ -136,18 +136,15 @@ def time_gap(a: dict, b: dict) -> dict | None:
     return _judged("catch_time_s", b["catch_time_s"] - a["catch_time_s"], _welch_half(sa, sb))
 
 
-ORDERING = (("sp_rl", "rl"), ("sp_rl", "p_rl"), ("sp_rl", "sp_fp"), ("sp_fp", "rl"))
-"""The paper's high-speed claims, each 'first beats second' (sp_fp between rl and sp_rl)."""
-
-
-def ordering_checks(cells: list[dict], speeds) -> list[dict]:
-    """Each claim on success (``metric`` success_rate: difference in rate) and, with 2+
-    seeds, on catch time (``metric`` catch_time_s: seconds the first method saves)."""
+def ordering_checks(cells: list[dict], speeds, claims) -> list[dict]:
+    """Each claim ``(winner, loser)`` (``dyncatch.rl.methods.paper_claims()``) on success
+    (``metric`` success_rate: difference in rate) and, with 2+ seeds, on catch time
+    (``metric`` catch_time_s: seconds the first method saves)."""
     by = {(c["behavior"], c["method"], c["speed_mps"]): c for c in cells}
     checks = []
     for behavior in dict.fromkeys(c["behavior"] for c in cells):
         for speed in speeds:
-            for hi, lo in ORDERING:
+            for hi, lo in claims:
                 a, b = by.get((behavior, hi, speed)), by.get((behavior, lo, speed))
                 if a is None or b is None:
                     continue

@@ -10,12 +10,13 @@ import json
 import subprocess
 import time
 from collections.abc import Callable
-from pathlib import Path
 
 import numpy as np
 
+from dyncatch.predictor.table import all_behaviors
 from dyncatch.reproduce import aggregate, report, stages
-from dyncatch.reproduce.plan import ALL_BEHAVIORS, EVALUATED, LEARNED, Plan, estimate_s
+from dyncatch.reproduce.plan import Plan, estimate_s
+from dyncatch.rl.methods import METHODS, paper_claims, trained_methods
 
 
 def _commit() -> str:
@@ -44,7 +45,10 @@ def time_to_success(curve: dict, threshold: float = 0.9) -> dict:
     return {"samples": int(curve["eval_env_steps"][i]), "time_s": float(curve["eval_time_s"][i])}
 
 
-def run(plan: Plan, out: Path, world, command: str, log: Callable[[str], None]) -> dict:
+def run(plan: Plan, command: str, log: Callable[[str], None], progress=None) -> dict:
+    """Every stage of ``plan`` into ``plan.out_dir``; ``log`` gets one line per stage and
+    ``progress`` (``dyncatch.utils.progress``) the bars of long stages."""
+    out = plan.out_dir
     t_start = time.perf_counter()
     say = log
 
@@ -59,28 +63,27 @@ def run(plan: Plan, out: Path, world, command: str, log: Callable[[str], None]) 
     )
 
     log("stage 1/6: frozen predictors")
-    predictors = stages.train_predictors(plan, out, world)
+    predictors = stages.train_predictors(plan, out, progress)
     log("stage 2/6: Table II")
-    table_ii = stages.table_ii(plan, out, world)
+    table_ii = stages.table_ii(plan, out)
     log(f"stage 3/6: {plan.training_runs} training runs")
-    stages.train_policies(plan, out, world, log)
+    stages.train_policies(plan, out, log, progress)
     log("stage 4/6: Table I evaluation")
-    t1_rows = stages.evaluate_grid(
-        plan, out, world, "table_i", plan.behaviors, plan.speeds_mps, log
-    )
+    t1_rows = stages.evaluate_grid(plan, out, "table_i", plan.behaviors, plan.speeds_mps, log)
     log("stage 5/6: Fig. 6 evaluation")
-    fig6_rows = stages.evaluate_grid(
-        plan, out, world, "fig6", ALL_BEHAVIORS, (plan.fig6_speed_mps,), log
-    )
+    behaviors = all_behaviors()
+    fig6_rows = stages.evaluate_grid(plan, out, "fig6", behaviors, (plan.fig6_speed_mps,), log)
     clips = []
     if plan.videos:
         log("stage 6/6: videos")
-        clips = stages.record_videos(plan, out, world)
+        clips = stages.record_videos(plan, out)
 
     cells = aggregate.summarize_cells(t1_rows)
     averages = aggregate.average_column(cells)
     high = [v for v in plan.speeds_mps if v >= 1.6 - 1e-9] or [max(plan.speeds_mps)]
-    checks = aggregate.ordering_checks(cells, high) + aggregate.ordering_checks(averages, [None])
+    claims = paper_claims()
+    checks = aggregate.ordering_checks(cells, high, claims)
+    checks += aggregate.ordering_checks(averages, [None], claims)
     fig6_cells = aggregate.summarize_cells(fig6_rows)
     data = report.curves(plan, out)
     training = []
@@ -105,7 +108,8 @@ def run(plan: Plan, out: Path, world, command: str, log: Callable[[str], None]) 
     report.plot_fig5(plan, data, figs / "fig5_learning_curves.png")
     report.plot_fig6(
         fig6_cells,
-        [*EVALUATED, "pursuit", "intercept"],
+        report.policy_order(),
+        behaviors,
         figs / "fig6_high_speed.png",
         plan.fig6_speed_mps,
     )
@@ -149,7 +153,8 @@ def render_report(r: dict, plan: Plan) -> str:
         f"- machine: {m['cpu']}, {m['cores']} cores, jax {m['jax']} ({m['backend']})",
         f"- wall time: {r['wall']['total_s'] / 60:.1f} min in all "
         f"({r['wall']['this_invocation_s'] / 60:.1f} min in the last invocation)",
-        f"- {plan.seeds} seed(s) x {len(LEARNED)} learned methods x {len(plan.behaviors)} "
+        f"- {plan.seeds} seed(s) x {len(trained_methods())} learned methods x "
+        f"{len(plan.behaviors)} "
         f"behaviours, {plan.train_steps / 1e6:g} M environment steps per run, "
         f"{plan.episodes} evaluation episodes per cell (the same evaluation seeds for every "
         "policy, disjoint from training).",
@@ -206,7 +211,7 @@ def render_report(r: dict, plan: Plan) -> str:
         lines.append(
             f"| {t['behavior']} | {t['method']} | {t['seed']} | {final} | {s} | {w} | {total} |"
         )
-    src = ", ".join(f"{b} -> {stages.source_behavior(plan, b)}" for b in ALL_BEHAVIORS)
+    src = ", ".join(f"{b} -> {stages.source_behavior(plan, b)}" for b in all_behaviors())
     lines += [
         "",
         f"## Fig. 6: {plan.fig6_speed_mps} m/s on every behaviour",
@@ -235,11 +240,11 @@ def render_report(r: dict, plan: Plan) -> str:
             f"({p['budget_steps'] / 1e6:g} M steps)"
         )
     if r["videos"]:
-        lines += ["", "## Videos: SP+RL with the FoV cone and the predicted-velocity arrow", ""]
+        lines += ["", "## Videos, with the FoV cone and the predicted-velocity arrow", ""]
         for c in r["videos"]:
             outcome = f"caught at {c['catch_time_s']:.1f} s" if c["caught"] else "not caught"
             lines.append(
-                f"- [{c['behavior']}]({c['file']}) at {c['speed_mps']} m/s, "
-                f"policy trained on {c['trained_on']}: {outcome}"
+                f"- {METHODS[c['method']].label} [{c['behavior']}]({c['file']}) at "
+                f"{c['speed_mps']} m/s, policy trained on {c['trained_on']}: {outcome}"
             )
     return "\n".join(lines) + "\n"

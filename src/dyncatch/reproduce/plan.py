@@ -1,90 +1,95 @@
-"""What a reproduction runs: a profile (``full`` or ``quick``) with command-line overrides.
+"""What a reproduction runs: a ``Plan``, which is also the command line of ``dyncatch reproduce``.
 
-A ``Plan`` is plain data; the stages read it and the report records it, so a results folder
-says exactly what produced it. Re-running with another plan into the same folder is refused
-(stages are cached by name, not by content).
+A profile (``full``, or ``quick`` with ``--quick``) gives every field its default; any flag
+given on the command line overrides it, even when it equals another profile's value. The
+plan, with its whole world and PPO config, is recorded in ``plan.json``: a results folder
+says exactly what produced it, and a re-run with another plan into it is refused.
 """
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
+from pathlib import Path
 
 from dyncatch.reproduce.paper import PAPER_SPEEDS_MPS
 from dyncatch.rl.config import PPOCfg
-
-LEARNED = ("rl", "p_rl", "gt_rl", "sp_rl")
-"""Methods that are trained; ``sp_fp`` is evaluated from the ``gt_rl`` runs."""
-EVALUATED = ("rl", "p_rl", "sp_fp", "sp_rl", "gt_rl")
-BASELINES = ("pursuit", "intercept")
-ALL_BEHAVIORS = ("circle", "bounce", "reactive", "random_reactive")
+from dyncatch.sim.config import WorldCfg
 
 
 @dataclass(frozen=True)
 class Plan:
-    profile: str
-    seeds: int
+    """Train every trained method on each behaviour over seeds (evaluation-only methods
+    reuse their policies), then write Table I, Table II, Fig. 5, Fig. 6, videos, report.md
+    and results.json. Re-running the same command skips finished stages and resumes an
+    interrupted one.
+    """
+
+    quick: bool = False
+    """The quick profile (one seed, short training, fewer episodes; about 10 min on 2 cores)
+    instead of the full one (3 seeds, 4 M steps per run, 1000 episodes per cell)."""
+    out: Path | None = None
+    """Results folder (default results/full or results/quick)."""
+    seeds: int = 3
     """Training seeds per (method, behaviour)."""
-    behaviors: tuple[str, ...]
+    behaviors: tuple[str, ...] = ("reactive", "random_reactive")
     """Behaviours trained on (Table I rows, Fig. 5 panels)."""
-    train_steps: int
+    train_steps: int = 4_000_000
     """Environment steps per training run."""
-    speeds_mps: tuple[float, ...]
-    """Table I columns."""
-    episodes: int
+    speeds_mps: tuple[float, ...] = PAPER_SPEEDS_MPS
+    """Table I columns (target speeds, m/s)."""
+    episodes: int = 1000
     """Evaluation episodes per (policy, behaviour, speed) cell."""
-    fig6_speed_mps: float
+    fig6_speed_mps: float = 1.8
     """The high speed of Fig. 6."""
-    predictor_steps: int
+    predictor_steps: int = 2_000_000
     """Interaction steps the frozen predictors are trained on."""
-    predictor_updates: int
+    predictor_updates: int = 6000
     """Gradient steps of each predictor."""
-    table_ii_budgets: tuple[int, ...]
+    table_ii_budgets: tuple[int, ...] = (200_000, 500_000, 1_000_000, 2_000_000)
     """Table II columns (interaction steps)."""
-    table_ii_eval_steps: int
+    table_ii_eval_steps: int = 500_000
     """Held-out interaction steps per Table II behaviour."""
-    videos: bool
-    """One GIF per behaviour of the sp_rl policy."""
+    videos: bool = True
+    """One GIF per behaviour of the filmed method's policy."""
     ppo: PPOCfg = PPOCfg()
+    """PPO hyper-parameters and batch geometry of every run."""
+    world: WorldCfg = WorldCfg()
+    """The simulated world of every stage."""
+
+    @property
+    def profile(self) -> str:
+        return "quick" if self.quick else "full"
+
+    @property
+    def out_dir(self) -> Path:
+        return self.out if self.out is not None else Path("results") / self.profile
 
     @property
     def training_runs(self) -> int:
-        return len(LEARNED) * len(self.behaviors) * self.seeds
+        from dyncatch.rl.methods import trained_methods
+
+        return len(trained_methods()) * len(self.behaviors) * self.seeds
 
     def to_json(self) -> dict:
-        d = dataclasses.asdict(self)
-        d["ppo"] = dataclasses.asdict(self.ppo)
+        """Everything that shapes the results (all fields but ``out``), as JSON values."""
+        from dyncatch.utils.config_io import to_json
+
+        d = to_json(self)
+        del d["out"]
         return d
 
 
 PROFILES: dict[str, Plan] = {
-    "full": Plan(
-        profile="full",
-        seeds=3,
-        behaviors=("reactive", "random_reactive"),
-        train_steps=4_000_000,
-        speeds_mps=PAPER_SPEEDS_MPS,
-        episodes=1000,
-        fig6_speed_mps=1.8,
-        predictor_steps=2_000_000,
-        predictor_updates=6000,
-        table_ii_budgets=(200_000, 500_000, 1_000_000, 2_000_000),
-        table_ii_eval_steps=500_000,
-        videos=True,
-    ),
+    "full": Plan(),
     "quick": Plan(
-        profile="quick",
+        quick=True,
         seeds=1,
-        behaviors=("reactive", "random_reactive"),
         train_steps=800_000,
-        speeds_mps=PAPER_SPEEDS_MPS,
         episodes=200,
-        fig6_speed_mps=1.8,
         predictor_steps=500_000,
         predictor_updates=1500,
         table_ii_budgets=(100_000, 500_000),
         table_ii_eval_steps=100_000,
-        videos=True,
         # 128-128-64 networks train about 2.4x faster than 256-256-128 on 2 cores, so 0.8 M
         # steps (past the ~0.5 M knee of the full run's learning curves) fit in the 10
         # minutes: measured 8.5 min, every learned method at 0.73-1.00 success on reactive
@@ -92,6 +97,13 @@ PROFILES: dict[str, Plan] = {
         ppo=PPOCfg(hidden_sizes=(128, 128, 64)),
     ),
 }
+
+
+def profile_default(plan: Plan) -> Plan:
+    """The profile a first parse of the command line asked for: the command line is parsed
+    again on top of it, so every flag given overrides the profile."""
+    return PROFILES[plan.profile]
+
 
 # Measured on the 2-core CI machine (docs/performance.md, docs/results.md); only used to
 # print an estimate before starting.
@@ -103,13 +115,19 @@ EST_PREDICTOR_S_PER_M_STEPS = 8.0
 
 def estimate_s(plan: Plan) -> float:
     """A rough wall-time estimate (seconds) for the whole plan on 2 cores."""
+    from dyncatch.policies.registry import BASELINES
+    from dyncatch.predictor.table import all_behaviors, all_kinds
+    from dyncatch.rl.methods import METHODS, predictor_kinds
+
+    behaviors = all_behaviors()
     train = plan.training_runs * (plan.train_steps / EST_SAMPLES_PER_S + EST_COMPILE_S_PER_RUN)
-    policies = (len(EVALUATED) * plan.seeds + len(BASELINES)) * len(plan.behaviors)
-    cells = policies * len(plan.speeds_mps) + policies * len(ALL_BEHAVIORS) // 2
+    policies = (len(METHODS) * plan.seeds + len(BASELINES)) * len(plan.behaviors)
+    cells = policies * len(plan.speeds_mps) + policies * len(behaviors) // 2
     evaluate = cells * (plan.episodes / 1000 * EST_EVAL_S_PER_1000_EPISODES + 1.0)
-    pred_steps = 2 * len(plan.behaviors) * plan.predictor_steps + 4 * max(plan.table_ii_budgets)
+    pred_steps = len(predictor_kinds()) * len(plan.behaviors) * plan.predictor_steps
+    pred_steps += len(all_kinds()) * len(behaviors) * max(plan.table_ii_budgets)
     predictors = pred_steps / 1e6 * EST_PREDICTOR_S_PER_M_STEPS + 30 * len(plan.behaviors)
-    videos = 30.0 * len(ALL_BEHAVIORS) if plan.videos else 0.0
+    videos = 30.0 * len(behaviors) if plan.videos else 0.0
     return train + evaluate + predictors + videos
 
 
@@ -117,6 +135,7 @@ def validate_plan(plan: Plan) -> Plan:
     """Raise ValueError naming the flag that cannot work."""
     from dyncatch.rl.config import validate_ppo
     from dyncatch.sim.behaviors import BEHAVIORS
+    from dyncatch.sim.validate import validate_world
 
     if plan.seeds < 1:
         raise ValueError(f"--seeds must be >= 1, got {plan.seeds}")
@@ -137,4 +156,6 @@ def validate_plan(plan: Plan) -> Plan:
             "--predictor-steps, --predictor-updates and --table-ii-budgets must be set"
         )
     validate_ppo(plan.ppo)
+    for b in plan.behaviors:
+        validate_world(plan.world.with_behavior(b))
     return plan

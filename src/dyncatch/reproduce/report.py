@@ -8,19 +8,27 @@ from pathlib import Path
 import numpy as np
 
 from dyncatch.reproduce.paper import paper_cell
-from dyncatch.reproduce.plan import ALL_BEHAVIORS, LEARNED, Plan
+from dyncatch.reproduce.plan import Plan
 
-METHOD_LABEL = {
-    "rl": "RL",
-    "p_rl": "P+RL",
-    "sp_fp": "SP+FP",
-    "sp_rl": "SP+RL (ours)",
-    "gt_rl": "GT-Pred RL",
-    "pursuit": "pursuit (scripted)",
-    "intercept": "intercept (KF)",
-}
-ORDER = ("rl", "p_rl", "sp_fp", "sp_rl", "gt_rl", "pursuit", "intercept")
-COLORS = dict(zip(ORDER, ("C0", "C1", "C2", "C3", "C4", "C7", "C8"), strict=True))
+
+def _registry() -> dict:
+    """Every evaluated policy (methods, then baselines) by name, in table order."""
+    from dyncatch.policies.registry import BASELINES
+    from dyncatch.rl.methods import METHODS
+
+    return {**METHODS, **BASELINES}
+
+
+def policy_order() -> tuple[str, ...]:
+    return tuple(_registry())
+
+
+def label(name: str) -> str:
+    return _registry()[name].label
+
+
+def color(name: str) -> str:
+    return _registry()[name].color
 
 
 def read_curve(run: Path) -> dict[str, np.ndarray]:
@@ -47,10 +55,11 @@ def smooth(x: np.ndarray, window: int = 5) -> np.ndarray:
 
 def curves(plan: Plan, out: Path) -> dict:
     from dyncatch.reproduce.stages import run_dir
+    from dyncatch.rl.methods import trained_methods
 
     result = {}
     for behavior in plan.behaviors:
-        for method in LEARNED:
+        for method in trained_methods():
             runs = [read_curve(run_dir(out, behavior, method, s)) for s in range(plan.seeds)]
             result[(behavior, method)] = {
                 k: np.stack([r[k][: min(len(q[k]) for q in runs)] for r in runs]) for k in runs[0]
@@ -79,15 +88,17 @@ def plot_fig5(plan: Plan, data: dict, path: Path) -> None:
         )
         for i, (xkey, key, label, smoothed) in enumerate(panels):
             ax = axes[i, j]
-            for method in LEARNED:
+            for b, method in data:
+                if b != behavior:
+                    continue
                 d = data[(behavior, method)]
                 if d[key].shape[1] == 0:
                     continue
                 x = d[xkey][0] / 1e6
                 ys = np.stack([smooth(y) if smoothed else y for y in d[key]])
-                ax.plot(x, ys.mean(0), color=COLORS[method], label=METHOD_LABEL[method])
+                ax.plot(x, ys.mean(0), color=color(method), label=label(method))
                 if ys.shape[0] > 1:
-                    ax.fill_between(x, ys.min(0), ys.max(0), color=COLORS[method], alpha=0.2)
+                    ax.fill_between(x, ys.min(0), ys.max(0), color=color(method), alpha=0.2)
             ax.set_xlabel("environment steps (M)")
             ax.set_ylabel(label)
             ax.set_title(f"{behavior}")
@@ -99,7 +110,7 @@ def plot_fig5(plan: Plan, data: dict, path: Path) -> None:
     plt.close(fig)
 
 
-def plot_fig6(cells: list[dict], methods, path: Path, speed: float) -> None:
+def plot_fig6(cells: list[dict], methods, behaviors, path: Path, speed: float) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -108,19 +119,19 @@ def plot_fig6(cells: list[dict], methods, path: Path, speed: float) -> None:
     by = {(c["behavior"], c["method"]): c for c in cells}
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
     width = 0.8 / len(methods)
-    xs = np.arange(len(ALL_BEHAVIORS))
+    xs = np.arange(len(behaviors))
     for k, method in enumerate(methods):
         for ax, key in zip(axes, ("success_rate", "catch_time_s"), strict=True):
-            vals = [by[(b, method)][key] if (b, method) in by else np.nan for b in ALL_BEHAVIORS]
+            vals = [by[(b, method)][key] if (b, method) in by else np.nan for b in behaviors]
             err = None
             if key == "success_rate":
                 lo = [
                     v - by[(b, method)]["success_ci95"][0] if (b, method) in by else 0
-                    for b, v in zip(ALL_BEHAVIORS, vals, strict=True)
+                    for b, v in zip(behaviors, vals, strict=True)
                 ]
                 hi = [
                     by[(b, method)]["success_ci95"][1] - v if (b, method) in by else 0
-                    for b, v in zip(ALL_BEHAVIORS, vals, strict=True)
+                    for b, v in zip(behaviors, vals, strict=True)
                 ]
                 err = np.maximum([lo, hi], 0)
             ax.bar(
@@ -128,14 +139,14 @@ def plot_fig6(cells: list[dict], methods, path: Path, speed: float) -> None:
                 vals,
                 width,
                 yerr=err,
-                color=COLORS[method],
-                label=METHOD_LABEL[method],
+                color=color(method),
+                label=label(method),
                 capsize=2,
             )
     axes[0].set_ylabel("success rate")
     axes[1].set_ylabel("mean catch time (s, failure = limit)")
     for ax in axes:
-        ax.set_xticks(xs, ALL_BEHAVIORS)
+        ax.set_xticks(xs, behaviors)
         ax.grid(axis="y", alpha=0.3)
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=len(methods), fontsize=8)
@@ -153,7 +164,7 @@ def plot_table_i(cells: list[dict], behaviors, path: Path) -> None:
 
     fig, axes = plt.subplots(1, len(behaviors), figsize=(6 * len(behaviors), 4.2), squeeze=False)
     for ax, behavior in zip(axes[0], behaviors, strict=True):
-        for method in ORDER:
+        for method in policy_order():
             cs = sorted(
                 (c for c in cells if c["behavior"] == behavior and c["method"] == method),
                 key=lambda c: c["speed_mps"],
@@ -162,12 +173,12 @@ def plot_table_i(cells: list[dict], behaviors, path: Path) -> None:
                 continue
             x = [c["speed_mps"] for c in cs]
             y = [c["success_rate"] for c in cs]
-            ax.plot(x, y, "o-", color=COLORS[method], label=METHOD_LABEL[method])
+            ax.plot(x, y, "o-", color=color(method), label=label(method))
             ax.fill_between(
                 x,
                 [c["success_ci95"][0] for c in cs],
                 [c["success_ci95"][1] for c in cs],
-                color=COLORS[method],
+                color=color(method),
                 alpha=0.15,
             )
         ax.set_title(f"Table I (ours): {behavior}")
@@ -198,13 +209,11 @@ def table_i_markdown(cells, averages, behavior: str, speeds) -> str:
     avg = {a["method"]: a for a in averages if a["behavior"] == behavior}
     head = " | ".join(f"{v:.1f} m/s" for v in speeds)
     lines = [f"| method | source | {head} | average |", "|---|---|" + "---|" * (len(speeds) + 1)]
-    for method in ORDER:
+    for method in policy_order():
         if method not in avg:
             continue
         ours = [_cell(by.get((method, v))) for v in speeds]
-        lines.append(
-            f"| {METHOD_LABEL[method]} | ours | {' | '.join(ours)} | {_cell(avg[method])} |"
-        )
+        lines.append(f"| {label(method)} | ours | {' | '.join(ours)} | {_cell(avg[method])} |")
         if paper_cell(behavior, method, None) is not None:
             paper = [_paper(behavior, method, v) for v in speeds]
             lines.append(f"| | paper | {' | '.join(paper)} | {_paper(behavior, method, None)} |")
@@ -213,16 +222,17 @@ def table_i_markdown(cells, averages, behavior: str, speeds) -> str:
 
 def fig6_markdown(cells: list[dict]) -> str:
     by = {(c["behavior"], c["method"]): c for c in cells}
+    behaviors = list(dict.fromkeys(c["behavior"] for c in cells))
     lines = [
-        "| method | " + " | ".join(ALL_BEHAVIORS) + " |",
-        "|---|" + "---|" * len(ALL_BEHAVIORS),
+        "| method | " + " | ".join(behaviors) + " |",
+        "|---|" + "---|" * len(behaviors),
     ]
-    for method in ORDER:
-        if not any((b, method) in by for b in ALL_BEHAVIORS):
+    for method in policy_order():
+        if not any((b, method) in by for b in behaviors):
             continue
         lines.append(
-            f"| {METHOD_LABEL[method]} | "
-            + " | ".join(_cell(by.get((b, method))) for b in ALL_BEHAVIORS)
+            f"| {label(method)} | "
+            + " | ".join(_cell(by.get((b, method))) for b in behaviors)
             + " |"
         )
     return "\n".join(lines)

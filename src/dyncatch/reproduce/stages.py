@@ -10,7 +10,9 @@ Layout under ``out``::
     runs/{behavior}/{method}/seed{s}/      training runs (checkpoint, metrics.csv, tb/, done.json)
     eval/table_i/{behavior}/{policy}.json  one evaluation cell list per policy
     eval/fig6/{behavior}/{policy}.json
-    videos/sp_rl_{behavior}.gif
+    videos/{method}_{behavior}.gif         the filmed method (sp_rl)
+
+Methods, baselines, predictor kinds and behaviours all come from their registries.
 """
 
 from __future__ import annotations
@@ -21,10 +23,10 @@ import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
-from dyncatch.reproduce.plan import ALL_BEHAVIORS, BASELINES, EVALUATED, LEARNED, Plan
-
-PREDICTOR_OF = {"p_rl": "vanilla", "sp_rl": "self_aware", "sp_fp": "self_aware"}
-"""Which frozen predictor each method reads."""
+from dyncatch.predictor.table import all_behaviors
+from dyncatch.reproduce.plan import Plan
+from dyncatch.rl.methods import METHODS, get_method, predictor_kinds, trained_methods
+from dyncatch.utils.config_io import config_diff
 
 
 def write_json(path: Path, obj) -> None:
@@ -47,13 +49,15 @@ def cached(path: Path, compute: Callable[[], object]):
 def check_plan(out: Path, plan: Plan) -> None:
     """Record the plan; refuse to mix the results of two different plans in one folder."""
     path = out / "plan.json"
-    want = json.loads(json.dumps(plan.to_json()))
+    want = plan.to_json()
     if path.exists():
         have = json.loads(path.read_text())
         if have != want:
-            diff = sorted(k for k in want if have.get(k) != want[k])
+            diff = config_diff(have, want)
+            shown = ", ".join(f"{k} ({diff[k][0]} -> {diff[k][1]})" for k in list(diff)[:4])
+            more = f" and {len(diff) - 4} more" if len(diff) > 4 else ""
             raise ValueError(
-                f"{out} holds a reproduction with other {', '.join(diff)}; "
+                f"{out} holds a reproduction with other {shown}{more}; "
                 "re-run with the same flags to resume, or choose another --out"
             )
     else:
@@ -65,7 +69,8 @@ def predictor_dir(out: Path, behavior: str, kind: str) -> Path:
 
 
 def predictor_path(out: Path, behavior: str, method: str) -> Path | None:
-    kind = PREDICTOR_OF.get(method)
+    """The frozen predictor ``method`` reads for ``behavior``'s runs (None if it reads none)."""
+    kind = get_method(method).predictor_kind
     return None if kind is None else predictor_dir(out, behavior, kind) / "predictor.safetensors"
 
 
@@ -85,59 +90,53 @@ def _predictor_train(plan: Plan):
     return TrainCfg(updates=plan.predictor_updates, log_every=min(100, plan.predictor_updates))
 
 
-def train_predictors(plan: Plan, out: Path, world) -> list[dict]:
-    from dyncatch.cli.predictor import PredictorTrainCmd, run_predictor_train
+def train_predictors(plan: Plan, out: Path, progress=None) -> list[dict]:
+    from dyncatch.predictor.pipeline import PredictorTrainCfg, train_predictor
 
     results = []
     for behavior in plan.behaviors:
-        for kind in ("vanilla", "self_aware"):
+        for kind in predictor_kinds():
             d = predictor_dir(out, behavior, kind)
             if not ((d / "metrics.json").exists() and (d / "predictor.safetensors").exists()):
-                cmd = PredictorTrainCmd(
+                cfg = PredictorTrainCfg(
                     behavior=behavior,
                     kind=kind,
                     steps=plan.predictor_steps,
                     out=d,
                     eval_steps=plan.table_ii_eval_steps,
                     train=_predictor_train(plan),
-                    world=world,
+                    world=plan.world,
                 )
-                run_predictor_train(cmd)
+                train_predictor(cfg, progress)
             results.append(json.loads((d / "metrics.json").read_text()))
     return results
 
 
-def table_ii(plan: Plan, out: Path, world) -> list[dict]:
+def table_ii(plan: Plan, out: Path) -> list[dict]:
     def compute():
         from dyncatch.predictor.config import CollectCfg, PredictorCfg
         from dyncatch.predictor.table import TableCfg, run_table, write
 
-        table = TableCfg(
-            ALL_BEHAVIORS,
-            ("vanilla", "self_aware"),
-            plan.table_ii_budgets,
-            plan.table_ii_eval_steps,
-            0,
-        )
+        table = TableCfg(budgets=plan.table_ii_budgets, eval_steps=plan.table_ii_eval_steps)
         train = _predictor_train(plan)
-        rows = run_table(table, PredictorCfg(), train, CollectCfg(), world)
+        rows = run_table(table, PredictorCfg(), train, CollectCfg(), plan.world)
         write(rows, out / "table_ii")
         return rows
 
     return cached(out / "table_ii" / "table_ii.json", compute)
 
 
-def train_policies(plan: Plan, out: Path, world, on_run: Callable[[str], None]) -> None:
-    from dyncatch.cli.train import TrainCmd, run_train
+def train_policies(plan: Plan, out: Path, on_run: Callable[[str], None], progress=None) -> None:
+    from dyncatch.rl.runner import TrainRunCfg, TrainRunner
 
     for behavior in plan.behaviors:
-        for method in LEARNED:
+        for method in trained_methods():
             for seed in range(plan.seeds):
                 d = run_dir(out, behavior, method, seed)
                 if (d / "done.json").exists():
                     continue
                 on_run(f"train {method} on {behavior}, seed {seed}")
-                cmd = TrainCmd(
+                cfg = TrainRunCfg(
                     method=method,
                     behavior=behavior,
                     total_steps=plan.train_steps,
@@ -147,32 +146,31 @@ def train_policies(plan: Plan, out: Path, world, on_run: Callable[[str], None]) 
                     resume=(d / "checkpoint.safetensors").exists(),
                     eval_speed_mps=plan.fig6_speed_mps,
                     ppo=plan.ppo,
-                    world=world,
+                    world=plan.world,
                 )
-                final = run_train(cmd)
+                final = TrainRunner(cfg).learn(progress)
                 write_json(d / "done.json", final)
 
 
-def policies(plan: Plan, out: Path, behavior: str, world):
-    """(name, seed or None, loader) of every evaluated policy for a behaviour's runs."""
-    from dyncatch.policies.registry import BASELINES as BASELINE_FACTORIES
-    from dyncatch.rl.methods import METHODS
+def policies(plan: Plan, out: Path, behavior: str):
+    """(name, seed or None, loader) of every evaluated policy for a behaviour's runs: each
+    method of the registry over seeds, then each baseline."""
+    from dyncatch.policies.registry import BASELINES
     from dyncatch.rl.policy import load_run
 
     src = source_behavior(plan, behavior)
-    for method in EVALUATED:
-        trained = METHODS[method].trained_as or method
+    for method, m in METHODS.items():
         for seed in range(plan.seeds):
 
-            def load(method=method, trained=trained, seed=seed):
+            def load(method=method, trained=m.policy_source, seed=seed):
                 run = load_run(
                     run_dir(out, src, trained, seed), method, predictor_path(out, src, method)
                 )
                 return run.policy, run.world
 
             yield method, seed, load
-    for name in BASELINES:
-        yield name, None, lambda name=name: (BASELINE_FACTORIES[name](world), world)
+    for name, baseline in BASELINES.items():
+        yield name, None, lambda b=baseline: (b(plan.world), plan.world)
 
 
 def cell_name(method: str, seed: int | None) -> str:
@@ -180,14 +178,14 @@ def cell_name(method: str, seed: int | None) -> str:
 
 
 def evaluate_grid(
-    plan: Plan, out: Path, world, table: str, behaviors, speeds, on_cell: Callable[[str], None]
+    plan: Plan, out: Path, table: str, behaviors, speeds, on_cell: Callable[[str], None]
 ) -> list[dict]:
     """Rows of (policy, seed, behaviour, speed) cells, each policy's cells cached together."""
     from dyncatch.evaluation.grid import evaluate_speeds
 
     rows = []
     for behavior in behaviors:
-        for method, seed, load in policies(plan, out, behavior, world):
+        for method, seed, load in policies(plan, out, behavior):
             path = out / "eval" / table / behavior / f"{cell_name(method, seed)}.json"
 
             def compute(load=load, method=method, behavior=behavior):
@@ -200,7 +198,11 @@ def evaluate_grid(
     return rows
 
 
-def record_videos(plan: Plan, out: Path, world) -> list[dict]:
+def filmed_methods() -> tuple[str, ...]:
+    return tuple(name for name, m in METHODS.items() if m.filmed)
+
+
+def record_videos(plan: Plan, out: Path) -> list[dict]:
     import jax
 
     from dyncatch.rl.policy import load_run
@@ -208,32 +210,35 @@ def record_videos(plan: Plan, out: Path, world) -> list[dict]:
     from dyncatch.viz.trajectory import catch_time_s, record_episode
 
     clips = []
-    for behavior in ALL_BEHAVIORS:
-        path = out / "videos" / f"sp_rl_{behavior}.gif"
-        meta = path.with_suffix(".json")
+    for method in filmed_methods():
+        for behavior in all_behaviors():
+            path = out / "videos" / f"{method}_{behavior}.gif"
 
-        def compute(behavior=behavior, path=path):
-            src = source_behavior(plan, behavior)
-            run = load_run(
-                run_dir(out, src, "sp_rl", 0), "sp_rl", predictor_path(out, src, "sp_rl")
-            )
-            policy = run.policy
-            cfg = run.world.with_behavior(behavior).with_speed(plan.fig6_speed_mps)
+            def compute(method=method, behavior=behavior, path=path):
+                src = source_behavior(plan, behavior)
+                m = get_method(method)
+                run = load_run(
+                    run_dir(out, src, m.policy_source, 0), method, predictor_path(out, src, method)
+                )
+                policy = run.policy
+                cfg = run.world.with_behavior(behavior).with_speed(plan.fig6_speed_mps)
 
-            def extra(state, obs):
-                return {"pred_vel_mps": policy.obs_fn.velocity(state)[0]}
+                def extra(state, obs):
+                    return {"pred_vel_mps": policy.obs_fn.velocity(state)[0]}
 
-            traj = record_episode(policy, jax.random.key(0), cfg, extra_fn=extra)
-            write_video(render_frames(traj, cfg, every=3, size_px=400), path, fps=17)
-            t = catch_time_s(traj)
-            return {
-                "behavior": behavior,
-                "trained_on": src,
-                "speed_mps": plan.fig6_speed_mps,
-                "file": str(path.relative_to(out)),
-                "caught": t is not None,
-                "catch_time_s": t,
-            }
+                extra_fn = extra if m.velocity_input is not None else None
+                traj = record_episode(policy, jax.random.key(0), cfg, extra_fn=extra_fn)
+                write_video(render_frames(traj, cfg, every=3, size_px=400), path, fps=17)
+                t = catch_time_s(traj)
+                return {
+                    "method": method,
+                    "behavior": behavior,
+                    "trained_on": src,
+                    "speed_mps": plan.fig6_speed_mps,
+                    "file": str(path.relative_to(out)),
+                    "caught": t is not None,
+                    "catch_time_s": t,
+                }
 
-        clips.append(cached(meta, compute))
+            clips.append(cached(path.with_suffix(".json"), compute))
     return clips

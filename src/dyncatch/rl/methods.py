@@ -1,4 +1,4 @@
-"""The compared methods (paper Section V-C) as a registry of what the policy sees.
+"""The compared methods (paper Section V-C): a registry of self-describing ``Method``s.
 
 Every learned method runs the same PPO; they differ only in the velocity input appended to
 the observation: nothing (``rl``), a learned predictor's v_hat_{t+1} (``p_rl`` vanilla,
@@ -21,22 +21,106 @@ from dyncatch.predictor.model import Predictor
 from dyncatch.sim.geometry import world_to_body
 from dyncatch.sim.state import EnvState, Obs
 
+GROUND_TRUTH = "ground_truth"
+"""The velocity input of the oracle: the target's true velocity (the paper's GT-Pred)."""
+
 
 @dataclass(frozen=True)
 class Method:
+    """A compared method: everything other layers ask about it lives here.
+
+    The registry's order is the order of tables, legends and training.
+    """
+
+    name: str
+    label: str
+    """Name in tables and legends (the paper's where it has one)."""
+    color: str
+    """Matplotlib colour in every figure."""
     doc: str
-    velocity_input: str | None
-    """None (no prediction input), "ground_truth" or a predictor kind ("vanilla", ...)."""
+    velocity_input: str | None = None
+    """None (no prediction input), ``GROUND_TRUTH`` or a predictor kind (``vanilla``, ...)."""
     trained_as: str | None = None
     """For evaluation-only methods: the method whose trained policy is reused."""
+    beats: tuple[str, ...] = ()
+    """The paper's high-speed claims: this method catches more, and sooner, than these."""
+    filmed: bool = False
+    """The reproduction records one video per behaviour of this method's policy."""
+
+    @property
+    def trained(self) -> bool:
+        """Trained by PPO (else evaluated with the policy of ``trained_as``)."""
+        return self.trained_as is None
+
+    @property
+    def policy_source(self) -> str:
+        """The method whose training run provides this method's policy."""
+        return self.trained_as or self.name
+
+    @property
+    def predictor_kind(self) -> str | None:
+        """The frozen predictor this method reads, if any."""
+        return None if self.velocity_input in (None, GROUND_TRUTH) else self.velocity_input
+
+    def obs_fn(
+        self, predictor: Predictor | None = None, predictor_params=None, *, evaluation=False
+    ) -> MethodObs:
+        """The policy's input function; predictor methods need the matching predictor.
+
+        With ``evaluation=True`` an evaluation-only method (``sp_fp``) gets its own input;
+        in training it is refused (train its ``trained_as`` method instead).
+        """
+        if not self.trained and not evaluation:
+            raise ValueError(
+                f"method {self.name!r} is not trained: train {self.trained_as!r} and "
+                f"evaluate it as {self.name!r}"
+            )
+        kind = self.predictor_kind
+        if kind is None:
+            return MethodObs(self.velocity_input)
+        if predictor is None or predictor_params is None:
+            raise ValueError(
+                f"method {self.name!r} needs a trained {kind!r} predictor "
+                f"checkpoint (dyncatch predictor train --kind {kind})"
+            )
+        if predictor.cfg.kind != kind:
+            raise ValueError(
+                f"method {self.name!r} needs a {kind!r} predictor, got a {predictor.cfg.kind!r} one"
+            )
+        return MethodObs(self.velocity_input, predictor, predictor_params)
 
 
 METHODS: dict[str, Method] = {
-    "rl": Method("monolithic RL, no prediction input", None),
-    "p_rl": Method("vanilla predictor + RL", "vanilla"),
-    "sp_rl": Method("self-aware predictor + RL (the paper's method)", "self_aware"),
-    "gt_rl": Method("RL with the ground-truth target velocity (GT-Pred)", "ground_truth"),
-    "sp_fp": Method("gt_rl policy run with the self-aware predictor", "self_aware", "gt_rl"),
+    m.name: m
+    for m in (
+        Method("rl", "RL", "C0", "monolithic RL, no prediction input"),
+        Method("p_rl", "P+RL", "C1", "vanilla predictor + RL", "vanilla"),
+        Method(
+            "sp_fp",
+            "SP+FP",
+            "C2",
+            "gt_rl policy run with the self-aware predictor",
+            "self_aware",
+            trained_as="gt_rl",
+            beats=("rl",),
+        ),
+        Method(
+            "sp_rl",
+            "SP+RL (ours)",
+            "C3",
+            "self-aware predictor + RL (the paper's method)",
+            "self_aware",
+            beats=("rl", "p_rl", "sp_fp"),
+            filmed=True,
+        ),
+        Method(
+            "gt_rl",
+            "GT-Pred RL",
+            "C4",
+            "RL with the ground-truth target velocity (GT-Pred)",
+            GROUND_TRUTH,
+        ),
+    )
 }
 
 
@@ -44,6 +128,22 @@ def get_method(name: str) -> Method:
     if name not in METHODS:
         raise ValueError(f"unknown method {name!r}: choose one of {', '.join(METHODS)}")
     return METHODS[name]
+
+
+def trained_methods() -> tuple[str, ...]:
+    """Names of the methods PPO trains, in registry order."""
+    return tuple(name for name, m in METHODS.items() if m.trained)
+
+
+def predictor_kinds() -> tuple[str, ...]:
+    """The frozen predictor kinds some method reads, in registry order."""
+    kinds = (m.predictor_kind for m in METHODS.values())
+    return tuple(dict.fromkeys(k for k in kinds if k is not None))
+
+
+def paper_claims() -> tuple[tuple[str, str], ...]:
+    """The paper's high-speed ordering as (winner, loser) pairs."""
+    return tuple((name, other) for name, m in METHODS.items() for other in m.beats)
 
 
 @struct.dataclass
@@ -61,7 +161,7 @@ class MethodObs:
 
     def velocity(self, state: EnvState) -> tuple[jax.Array, jax.Array]:
         """(world velocity (2,), defined flag ())."""
-        if self.velocity_input == "ground_truth":
+        if self.velocity_input == GROUND_TRUTH:
             return state.target.vel_mps, jnp.ones(())
         history = history_from_state(state)
         v = self.predictor.predict(self.predictor_params, history)
@@ -79,27 +179,5 @@ class MethodObs:
 def method_obs(
     name: str, predictor: Predictor | None = None, predictor_params=None, *, evaluation=False
 ) -> MethodObs:
-    """The input function of a method; predictor methods need the matching predictor.
-
-    With ``evaluation=True`` an evaluation-only method (``sp_fp``) gets its own input; in
-    training it is refused (train its ``trained_as`` method instead).
-    """
-    m = get_method(name)
-    if m.trained_as is not None and not evaluation:
-        raise ValueError(
-            f"method {name!r} is not trained: train {m.trained_as!r} and evaluate it as {name!r}"
-        )
-    if m.velocity_input in (None, "ground_truth"):
-        return MethodObs(m.velocity_input)
-    if predictor is None or predictor_params is None:
-        raise ValueError(
-            f"method {name!r} needs a trained {m.velocity_input!r} predictor "
-            "checkpoint (dyncatch predictor train --kind "
-            f"{m.velocity_input})"
-        )
-    if predictor.cfg.kind != m.velocity_input:
-        raise ValueError(
-            f"method {name!r} needs a {m.velocity_input!r} predictor, got a "
-            f"{predictor.cfg.kind!r} one"
-        )
-    return MethodObs(m.velocity_input, predictor, predictor_params)
+    """``get_method(name).obs_fn(...)``: the input function of a method by name."""
+    return get_method(name).obs_fn(predictor, predictor_params, evaluation=evaluation)

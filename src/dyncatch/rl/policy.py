@@ -16,33 +16,33 @@ import jax
 from flax import struct
 
 from dyncatch.rl.config import PPOCfg
-from dyncatch.rl.methods import METHODS, MethodObs, get_method, method_obs
+from dyncatch.rl.methods import METHODS, MethodObs, get_method
 from dyncatch.rl.networks import ActorCritic
 from dyncatch.rl.normalize import RunningNorm
+from dyncatch.rl.runner import CHECKPOINT, TRAIN_FORMAT
 from dyncatch.rl.train import make_train, to_command
+from dyncatch.sim.api import Environment, JaxCatchEnv
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.state import EnvState, Obs
 from dyncatch.utils.config_io import from_dict
 from dyncatch.utils.tree_io import TreeFileError, load_tree, read_header
-
-CHECKPOINT = "checkpoint.safetensors"
-TRAIN_FORMAT = "dyncatch.train/1"
 
 
 @struct.dataclass
 class LearnedPolicy:
     """Recurrent-protocol policy (no carry) around a trained actor.
 
-    A pytree (weights, normaliser, predictor weights and world are leaves; the network and
-    the method's input kind are static), so evaluation passes it to jit as an argument:
-    every checkpoint of one method shares one compilation.
+    A pytree (weights, normaliser, predictor weights and the training environment are
+    leaves; the network and the method's input kind are static), so evaluation passes it to
+    jit as an argument: every checkpoint of one method shares one compilation. Actions are
+    scaled to commands by the training environment's limits, the ones the policy learned.
     """
 
     net: ActorCritic = struct.field(pytree_node=False)
     params: dict
     norm: RunningNorm
     obs_fn: MethodObs
-    world: WorldCfg
+    env: Environment
     is_pytree_policy: bool = struct.field(pytree_node=False, default=True)
 
     def init_carry(self, state: EnvState, obs: Obs) -> tuple:
@@ -51,7 +51,7 @@ class LearnedPolicy:
     def step(self, carry: tuple, state: EnvState, obs: Obs, key: jax.Array):
         del key  # the mean action: evaluation is deterministic given the world's noise
         mean, _, _ = self.net.apply(self.params, self.norm(self.obs_fn(state, obs)))
-        return carry, to_command(mean, self.world)
+        return carry, to_command(mean, self.env)
 
 
 @dataclass(frozen=True)
@@ -82,8 +82,14 @@ def load_run(
     if not path.exists():
         raise FileNotFoundError(f"{path}: no such run checkpoint (dyncatch train --out ...)")
     header = read_header(path)
-    if header.get("format") != TRAIN_FORMAT:
-        raise TreeFileError(f"{path}: not a dyncatch train checkpoint ({header.get('format')})")
+    fmt = header.get("format")
+    if fmt != TRAIN_FORMAT:
+        if str(fmt).startswith("dyncatch.train/"):
+            raise TreeFileError(
+                f"{path}: written by an older dyncatch ({fmt}, this one reads "
+                f"{TRAIN_FORMAT}); retrain it with dyncatch train"
+            )
+        raise TreeFileError(f"{path}: not a dyncatch train checkpoint ({fmt})")
     trained = header["method"]
     method = as_method or trained
     m = get_method(method)
@@ -96,20 +102,21 @@ def load_run(
     ppo = from_dict(PPOCfg, header["ppo"], "ppo")
     world = from_dict(WorldCfg, header["world"], "world")
     pred = pred_params = None
-    if m.velocity_input not in (None, "ground_truth"):
+    if m.predictor_kind is not None:
         pred_path = predictor or header.get("predictor")
         if pred_path is None:
             raise ValueError(
-                f"method {method!r} needs --predictor PATH (a {m.velocity_input!r} one)"
+                f"method {method!r} needs --predictor PATH (a {m.predictor_kind!r} one)"
             )
         from dyncatch.predictor.checkpoint import load as load_predictor
 
         pred, pred_params = load_predictor(pred_path)
-    obs_fn = method_obs(method, pred, pred_params, evaluation=True)
+    obs_fn = m.obs_fn(pred, pred_params, evaluation=True)
     # The template is the train state of the method it was trained as (same input size).
-    train_fn = method_obs(trained, pred, pred_params) if method != trained else obs_fn
-    init, _, net = make_train(world, ppo, train_fn)
+    train_fn = get_method(trained).obs_fn(pred, pred_params) if method != trained else obs_fn
+    env = JaxCatchEnv(world)
+    init, _, net = make_train(env, ppo, train_fn)
     template = jax.eval_shape(init, jax.random.key(0))
     ts, _ = load_tree(path, template)
-    policy = LearnedPolicy(net, ts.params, ts.norm, obs_fn, world)
+    policy = LearnedPolicy(net, ts.params, ts.norm, obs_fn, env)
     return Run(policy, method, trained, header["behavior"], world, header)

@@ -1,9 +1,10 @@
-"""``make_train(world, ppo)`` -> pure ``init(key)`` and ``iterate(state)``, each one jit.
+"""``make_train(env, ppo)`` -> pure ``init(key)`` and ``iterate(state)``, each one jit.
 
 One iteration = a ``lax.scan`` rollout of ``num_steps`` over ``num_envs`` auto-resetting
 environments, GAE with time-out bootstrapping, then ``update_epochs`` x ``num_minibatches``
 Adam steps with an adaptive-KL learning rate, all inside a single compiled function. The
-state is a pytree, so a run can be ``vmap``-ed over seeds.
+state is a pytree, so a run can be ``vmap``-ed over seeds. ``env`` is any backend of the
+environment protocol (``dyncatch.sim.api``); a ``WorldCfg`` means the JAX world.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from dyncatch.rl.gae import bootstrap_timeouts, gae
 from dyncatch.rl.loss import ppo_loss
 from dyncatch.rl.networks import ActorCritic, gaussian_kl, gaussian_log_prob
 from dyncatch.rl.normalize import RunningNorm
-from dyncatch.sim.base import command_high, command_low
+from dyncatch.sim.api import Environment, as_env
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.state import EnvState, Obs
 from dyncatch.sim.vec import batch_observe, batch_reset, batch_step
@@ -66,16 +67,17 @@ class Transition(NamedTuple):
     episode_steps: jax.Array
 
 
-def to_command(action: jax.Array, world: WorldCfg) -> jax.Array:
+def to_command(action: jax.Array, env: Environment) -> jax.Array:
     """Map a normalised action in [-1, 1]^3 (clipped) to the base command (vx, vy, yaw rate)."""
-    lo, hi = command_low(world.base), command_high(world.base)
-    return lo + (jnp.clip(action, -1.0, 1.0) + 1.0) * 0.5 * (hi - lo)
+    spec = env.action_spec
+    return spec.low + (jnp.clip(action, -1.0, 1.0) + 1.0) * 0.5 * (spec.high - spec.low)
 
 
-def make_train(world: WorldCfg, ppo: PPOCfg, obs_fn: ObsFn = flat_obs):
+def make_train(env: Environment | WorldCfg, ppo: PPOCfg, obs_fn: ObsFn = flat_obs):
     """Build the pure ``init(key) -> TrainState`` and ``iterate(TrainState) -> (TrainState,
     metrics)`` for one method (``obs_fn`` decides what the policy sees)."""
-    net = ActorCritic(3, ppo.hidden_sizes, ppo.init_log_std)
+    env = as_env(env)
+    net = ActorCritic(env.action_spec.shape[0], ppo.hidden_sizes, ppo.init_log_std)
     vobs = jax.vmap(obs_fn)
     optimizer = optax.chain(
         optax.clip_by_global_norm(ppo.max_grad_norm),
@@ -84,8 +86,8 @@ def make_train(world: WorldCfg, ppo: PPOCfg, obs_fn: ObsFn = flat_obs):
 
     def init(key: jax.Array) -> TrainState:
         k_net, k_env, k_next = jax.random.split(key, 3)
-        env_state = batch_reset(k_env, world, ppo.num_envs)
-        obs = batch_observe(env_state, world)
+        env_state = batch_reset(k_env, env, ppo.num_envs)
+        obs = batch_observe(env_state, env)
         x = vobs(env_state, obs)
         params = net.init(k_net, x[:1])
         return TrainState(
@@ -109,7 +111,7 @@ def make_train(world: WorldCfg, ppo: PPOCfg, obs_fn: ObsFn = flat_obs):
             action = mean + jnp.exp(log_std) * jax.random.normal(key, mean.shape)
             log_prob = gaussian_log_prob(action, mean, log_std)
             next_state, next_obs, reward, done, info = batch_step(
-                env_state, to_command(action, world), world
+                env_state, to_command(action, env), env
             )
             tr = Transition(
                 obs=x,
@@ -212,7 +214,7 @@ def make_train(world: WorldCfg, ppo: PPOCfg, obs_fn: ObsFn = flat_obs):
                 "success_rate": (traj.success * done).sum() / jnp.maximum(episodes, 1),
                 "episode_length_s": (traj.episode_steps * done).sum()
                 / jnp.maximum(episodes, 1)
-                * world.episode.dt_s,
+                * env.world.episode.dt_s,
                 "reward_per_step": traj.rewards.mean(),
                 "learning_rate": ts.learning_rate,
                 "action_std": jnp.exp(ts.params["params"]["log_std"]).mean(),

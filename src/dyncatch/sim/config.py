@@ -9,6 +9,7 @@ sources are listed in ``docs/model.md``.
 from __future__ import annotations
 
 import math
+from typing import Literal
 
 from flax import struct
 
@@ -149,16 +150,27 @@ class SensorCfg:
     """Std of the position noise added to each observation."""
 
 
+VisibilityReading = Literal["per_second", "per_step"]
+
+
 @struct.dataclass
 class RewardCfg:
-    """Weights of eq. 9."""
+    """Weights of eq. 9, and how w2 is read (the paper does not say per what it is paid)."""
 
     pursuit: float = 1.0
     """w1, on the change of robot-target distance (eq. 6)."""
     visibility: float = 0.2
-    """w2, on the target being inside the field of view (eq. 7)."""
+    """w2, on the target being inside the field of view (eq. 7); paper: 0.2."""
     success: float = 5.0
     """w3, on the catch (eq. 8)."""
+    visibility_per: VisibilityReading = static("per_second")
+    """Reading of w2: ``per_second`` pays w2 x dt each control step (0.004 at 50 Hz; the
+    training default: at 0.2 per step, watching the target pays more than catching it,
+    measured in docs/model.md), ``per_step`` pays w2 each control step (eq. 9 as written)."""
+
+    def visibility_weight(self, dt_s: float) -> float:
+        """The weight of the visibility term per control step of ``dt_s`` seconds."""
+        return self.visibility * (dt_s if self.visibility_per == "per_second" else 1.0)
 
 
 @struct.dataclass

@@ -186,7 +186,7 @@ def step(state: EnvState, action: jax.Array, cfg: WorldCfg):
     return (
         new_state,
         observe(new_state, cfg),
-        total_reward(terms, cfg.reward),
+        total_reward(terms, cfg.reward, dt_s),
         success | truncated,
         info,
     )

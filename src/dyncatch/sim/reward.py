@@ -24,6 +24,16 @@ def reward_terms(
     }
 
 
-def total_reward(terms: dict[str, jax.Array], cfg: RewardCfg) -> jax.Array:
-    """Eq. 9: w1 * pursuit + w2 * visibility + w3 * success."""
-    return sum(getattr(cfg, name) * value for name, value in terms.items())
+def weights(cfg: RewardCfg, dt_s: float) -> dict[str, float]:
+    """Per-control-step weight of each term (w2 read as ``cfg.visibility_per`` says)."""
+    return {
+        "pursuit": cfg.pursuit,
+        "visibility": cfg.visibility_weight(dt_s),
+        "success": cfg.success,
+    }
+
+
+def total_reward(terms: dict[str, jax.Array], cfg: RewardCfg, dt_s: float) -> jax.Array:
+    """Eq. 9: w1 * pursuit + w2 * visibility + w3 * success, per control step of ``dt_s``."""
+    w = weights(cfg, dt_s)
+    return sum(w[name] * value for name, value in terms.items())

@@ -1,8 +1,9 @@
 """Batches of environments: auto-reset written once, and ``vmap``-ed reset/step.
 
-The batch axis is the leading axis of every leaf of the state; nothing here assumes one
-device, so a batch can be sharded with ``jax.sharding`` and a whole training run ``vmap``-ed
-over seeds.
+Written over the environment protocol (``dyncatch.sim.api``), so every backend gets the
+same batching. The batch axis is the leading axis of every leaf of the state; nothing here
+assumes one device, so a batch can be sharded with ``jax.sharding`` and a whole training
+run ``vmap``-ed over seeds.
 """
 
 from __future__ import annotations
@@ -10,9 +11,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from dyncatch.sim.config import WorldCfg
-from dyncatch.sim.env import observe, reset, step
-from dyncatch.sim.state import EnvState
+from dyncatch.sim.api import Environment
 
 _RESET_STREAM = 1
 
@@ -21,30 +20,33 @@ def _select(pred: jax.Array, on_true, on_false):
     return jax.tree.map(lambda a, b: jnp.where(pred, a, b), on_true, on_false)
 
 
-def auto_reset_step(state: EnvState, action: jax.Array, cfg: WorldCfg):
-    """``step``, then start a new episode where this one ended.
+def auto_reset_step(state, action: jax.Array, env: Environment):
+    """``env.step``, then start a new episode where this one ended.
 
     The returned observation is the new episode's first one where ``done``; the last
     observation of the finished episode is ``info["final_obs"]`` (for time-out bootstrapping).
     """
-    next_state, obs, reward, done, info = step(state, action, cfg)
-    fresh = reset(jax.random.fold_in(next_state.key, _RESET_STREAM), cfg)
+    next_state, obs, reward, done, info = env.step(state, action)
+    fresh = env.reset(jax.random.fold_in(next_state.key, _RESET_STREAM))
     info["final_obs"] = obs
     return (
         _select(done, fresh, next_state),
-        _select(done, observe(fresh, cfg), obs),
+        _select(done, env.observe(fresh), obs),
         reward,
         done,
         info,
     )
 
 
-def batch_reset(key: jax.Array, cfg: WorldCfg, num_envs: int) -> EnvState:
+def batch_reset(key: jax.Array, env: Environment, num_envs: int):
     """``num_envs`` independent episodes; every leaf gets a leading axis of that size."""
-    return jax.vmap(reset, in_axes=(0, None))(jax.random.split(key, num_envs), cfg)
+    return jax.vmap(env.reset)(jax.random.split(key, num_envs))
 
 
 batch_step = jax.vmap(auto_reset_step, in_axes=(0, 0, None))
-"""(state [B], action [B, 3], cfg) -> (state [B], obs [B], reward [B], done [B], info [B])."""
+"""(state [B], action [B, 3], env) -> (state [B], obs [B], reward [B], done [B], info [B])."""
 
-batch_observe = jax.vmap(observe, in_axes=(0, None))
+
+def batch_observe(state, env: Environment):
+    """Observations of a batch of states, [B]."""
+    return jax.vmap(env.observe)(state)

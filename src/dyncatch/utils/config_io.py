@@ -37,3 +37,27 @@ def from_dict(cls: type, d: dict, where: str = "") -> Any:
         else:
             kwargs[name] = value
     return dataclasses.replace(default, **kwargs)
+
+
+def to_json(cfg: Any) -> Any:
+    """A config (nested dataclasses, tuples) as JSON values (tuples become lists)."""
+    import json
+
+    return json.loads(json.dumps(dataclasses.asdict(cfg) if dataclasses.is_dataclass(cfg) else cfg))
+
+
+def flatten(d: Any, prefix: str = "") -> dict[str, Any]:
+    """Nested dicts as one dict with dotted keys (``{"a": {"b": 1}}`` -> ``{"a.b": 1}``)."""
+    if not isinstance(d, dict):
+        return {prefix: d}
+    out: dict[str, Any] = {}
+    for k, v in d.items():
+        out.update(flatten(v, f"{prefix}.{k}" if prefix else str(k)))
+    return out
+
+
+def config_diff(old: Any, new: Any) -> dict[str, tuple[Any, Any]]:
+    """Dotted field names whose values differ between two configs (or their JSON dicts),
+    mapped to ``(old, new)``; a field missing on one side reads as None."""
+    a, b = flatten(to_json(old)), flatten(to_json(new))
+    return {k: (a.get(k), b.get(k)) for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)}

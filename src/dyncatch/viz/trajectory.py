@@ -14,8 +14,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from dyncatch.policies.api import as_recurrent
+from dyncatch.sim.api import Environment, as_env
 from dyncatch.sim.config import WorldCfg
-from dyncatch.sim.env import observe, reset, step
 from dyncatch.sim.state import EnvState, Obs
 
 ExtraFn = Callable[[EnvState, Obs], dict[str, jax.Array]]
@@ -37,7 +37,7 @@ BUILTIN_KEYS = (
 )
 
 
-def _snapshot(state: EnvState, done: jax.Array, cfg: WorldCfg, extra_fn, obs: Obs) -> dict:
+def _snapshot(state: EnvState, done: jax.Array, extra_fn, obs: Obs) -> dict:
     """The recorded values of one state (one row of the trajectory)."""
     row = {
         "step": state.step,
@@ -63,20 +63,20 @@ def _snapshot(state: EnvState, done: jax.Array, cfg: WorldCfg, extra_fn, obs: Ob
 
 
 def _rollout_impl(
-    policy: Callable, key: jax.Array, cfg: WorldCfg, num_steps: int, extra_fn: ExtraFn | None
+    policy: Callable, key: jax.Array, env: Environment, num_steps: int, extra_fn: ExtraFn | None
 ) -> dict[str, jax.Array]:
     """Rows of ``num_steps + 1`` states: each value has a leading axis of that length."""
     k_reset, k_act = jax.random.split(key)
-    state = reset(k_reset, cfg)
-    obs = observe(state, cfg)
-    first = _snapshot(state, jnp.zeros((), bool), cfg, extra_fn, obs)
+    state = env.reset(k_reset)
+    obs = env.observe(state)
+    first = _snapshot(state, jnp.zeros((), bool), extra_fn, obs)
     pol = as_recurrent(policy)
 
     def body(carry, t):
         state, obs, pcarry = carry
         pcarry, action = pol.step(pcarry, state, obs, jax.random.fold_in(k_act, t))
-        state, obs, _, done, _ = step(state, action, cfg)
-        return (state, obs, pcarry), _snapshot(state, done, cfg, extra_fn, obs)
+        state, obs, _, done, _ = env.step(state, action)
+        return (state, obs, pcarry), _snapshot(state, done, extra_fn, obs)
 
     init = (state, obs, pol.init_carry(state, obs))
     _, rows = jax.lax.scan(body, init, jnp.arange(num_steps))
@@ -87,16 +87,16 @@ _rollout_static = jax.jit(_rollout_impl, static_argnames=("policy", "num_steps",
 _rollout_pytree = jax.jit(_rollout_impl, static_argnames=("num_steps", "extra_fn"))
 
 
-def _rollout(policy, key, cfg, num_steps, extra_fn):
+def _rollout(policy, key, env, num_steps, extra_fn):
     """Pytree policies (``is_pytree_policy``) are jit arguments; others are static."""
     run = _rollout_pytree if getattr(policy, "is_pytree_policy", False) else _rollout_static
-    return run(policy, key, cfg, num_steps, extra_fn)
+    return run(policy, key, env, num_steps, extra_fn)
 
 
 def record_episode(
     policy: Callable,
     key: jax.Array,
-    cfg: WorldCfg,
+    cfg: Environment | WorldCfg,
     max_steps: int | None = None,
     extra_fn: ExtraFn | None = None,
 ) -> dict[str, np.ndarray]:
@@ -106,7 +106,8 @@ def record_episode(
         policy: a pure ``(obs, key) -> action (3,)``; it is a static jit argument, so pass
             the same object to reuse the compiled rollout.
         key: PRNG key of the episode (reset and policy keys are split from it).
-        cfg: the world.
+        cfg: the world, or a backend of ``dyncatch.sim.api`` (its state must carry the
+            JAX world's ``robot``, ``target`` and ``sensor`` fields, which are recorded).
         max_steps: steps to simulate; defaults to the episode limit ``cfg.episode.max_steps``.
         extra_fn: optional ``(state, obs) -> {name: array}`` recorded per row next to the
             built-in values (e.g. ``pred_vel_mps`` (2,), which the renderer draws as an arrow).
@@ -120,10 +121,12 @@ def record_episode(
         ``obs_xy_m`` (T, 2) (the held sighting), ``visible`` / ``ever_seen`` / ``success`` /
         ``done`` (T,) bool, and the ``extra_fn`` values.
     """
+    env = as_env(cfg)
+    cfg = env.world
     num_steps = int(cfg.episode.max_steps) if max_steps is None else int(max_steps)
     if num_steps < 1:
         raise ValueError(f"max_steps must be at least 1, got {num_steps}")
-    rows = jax.device_get(_rollout(policy, key, cfg, num_steps, extra_fn))
+    rows = jax.device_get(_rollout(policy, key, env, num_steps, extra_fn))
     done = np.asarray(rows["done"])
     end = int(np.argmax(done)) + 1 if done.any() else len(done)
     traj = {name: np.asarray(value)[:end] for name, value in rows.items()}

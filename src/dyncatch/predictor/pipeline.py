@@ -1,0 +1,113 @@
+"""The predictor pipeline: collect interaction data, fit one predictor, measure it, save it.
+
+``train_predictor(cfg, progress)`` writes ``predictor.safetensors``, ``loss.csv``,
+``metrics.json`` and TensorBoard events under ``cfg.out`` and returns the metrics; it prints
+nothing. ``dyncatch predictor train`` and the reproduction both call it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import time
+from pathlib import Path
+
+from dyncatch.predictor.config import CollectCfg, Frame, Kind, PredictorCfg, TrainCfg
+from dyncatch.sim.config import WorldCfg
+from dyncatch.utils.progress import NoProgress, Progress
+
+
+@dataclasses.dataclass(frozen=True)
+class PredictorTrainCfg:
+    """Collect interaction data, train one predictor, save it and report its held-out error."""
+
+    behavior: str = "reactive"
+    """Target behaviour, a key of dyncatch.sim.behaviors.BEHAVIORS."""
+    kind: Kind = "self_aware"
+    """vanilla (target observations only) or self_aware (plus the robot's states)."""
+    steps: int = 2_000_000
+    """Interaction budget in simulator (control) steps."""
+    out: Path = Path("runs/predictor")
+    """Folder for predictor.safetensors, loss.csv, tb/ (TensorBoard) and metrics.json."""
+    frame: Frame = "egocentric"
+    """Input frame (see docs/predictor.md)."""
+    hidden: tuple[int, ...] = PredictorCfg.hidden
+    """Hidden layer widths."""
+    eval_steps: int = 200_000
+    """Interaction steps of held-out episodes (another seed) for the reported error."""
+    seed: int = 0
+    """Seed of data collection and initialisation (held-out data use a different stream)."""
+    train: TrainCfg = TrainCfg()
+    """Optimisation."""
+    collect: CollectCfg = CollectCfg()
+    """Interaction data."""
+    world: WorldCfg = WorldCfg()
+    """The simulated world (the behavior flag overrides world.target.behavior)."""
+
+
+def check_world(world: WorldCfg, behaviors, budgets, collect: CollectCfg) -> None:
+    """Raise naming the flag when a behaviour or a budget cannot work in ``world``."""
+    from dyncatch.predictor.data import steps_per_env
+    from dyncatch.sim.validate import validate_world
+
+    for b in behaviors:
+        validate_world(world.with_behavior(b))
+    per_env = steps_per_env(collect.interaction_world(world))
+    for n in budgets:
+        if n < per_env:
+            raise ValueError(f"budget {n} steps is below one episode ({per_env}): raise it")
+
+
+def train_predictor(cfg: PredictorTrainCfg, progress: Progress | None = None) -> dict:
+    """Run the pipeline; returns ``{"behavior", "kind", "budget_steps", "train_samples",
+    "eval_samples", "error_mps", "seconds"}`` (also written to ``metrics.json``)."""
+    import jax
+    from tensorboardX import SummaryWriter
+
+    from dyncatch.predictor import checkpoint
+    from dyncatch.predictor.config import validate
+    from dyncatch.predictor.data import collect
+    from dyncatch.predictor.model import Predictor
+    from dyncatch.predictor.train import encode_samples, evaluate, fit
+
+    progress = progress or NoProgress()
+    predictor_cfg = PredictorCfg(kind=cfg.kind, frame=cfg.frame, hidden=cfg.hidden)
+    validate(predictor_cfg, cfg.train, cfg.collect)
+    check_world(cfg.world, [cfg.behavior], [cfg.steps], cfg.collect)
+    world = cfg.world.with_behavior(cfg.behavior)
+    predictor = Predictor.for_world(predictor_cfg, world)
+    k_data, k_eval, k_fit = jax.random.split(jax.random.key(cfg.seed), 3)
+    cfg.out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    update = progress.task(f"collecting ({cfg.behavior}, {cfg.kind})", cfg.steps)
+    data, used = collect(k_data, world, cfg.collect, cfg.steps, update)
+    held_out, _ = collect(k_eval, world, cfg.collect, cfg.eval_steps)
+    update = progress.task(f"training ({cfg.behavior}, {cfg.kind})", cfg.train.updates)
+    writer = SummaryWriter(str(cfg.out / "tb"))
+    with (cfg.out / "loss.csv").open("w") as log:
+        log.write("update,loss_mps\n")
+
+        def on_log(step: int, loss: float) -> None:
+            log.write(f"{step},{loss:.6f}\n")
+            writer.add_scalar("loss/l2_mps", loss, step)
+            update(step, f"loss {loss:.3f} m/s")
+
+        n = len(data.label_mps)
+        params, _ = fit(
+            predictor, cfg.train, encode_samples(predictor, data), data.label_mps, n, k_fit, on_log
+        )
+    error = evaluate(predictor, params, encode_samples(predictor, held_out), held_out.label_mps)
+    writer.add_scalar("eval/error_mps", error, cfg.train.updates)
+    writer.close()
+    metrics = {
+        "behavior": cfg.behavior,
+        "kind": cfg.kind,
+        "budget_steps": used,
+        "train_samples": n,
+        "eval_samples": len(held_out.label_mps),
+        "error_mps": error,
+        "seconds": time.perf_counter() - t0,
+    }
+    checkpoint.save(cfg.out / "predictor.safetensors", predictor, params, info=metrics)
+    (cfg.out / "metrics.json").write_text(json.dumps(metrics, indent=2))
+    return metrics

@@ -1,0 +1,209 @@
+"""The training runner: one PPO run of one method, with checkpoints, resume, periodic
+evaluation and logs (rsl_rl's ``OnPolicyRunner`` is the model).
+
+``TrainRunner(cfg).learn(progress)`` is the loop ``iterate -> log -> evaluate -> save``
+around the pure, jitted ``make_train``. Everything that touches files lives here; the CLI
+(``dyncatch train``) and the reproduction pipeline both call it and only attach a progress
+display.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import time
+from pathlib import Path
+
+import jax
+
+from dyncatch.rl.config import PPOCfg, validate_ppo
+from dyncatch.rl.methods import get_method
+from dyncatch.rl.train import TrainState, make_train
+from dyncatch.sim.api import Environment, JaxCatchEnv
+from dyncatch.sim.config import WorldCfg
+from dyncatch.utils.progress import NoProgress, Progress
+
+CHECKPOINT = "checkpoint.safetensors"
+TRAIN_FORMAT = "dyncatch.train/2"
+"""Checkpoint format; /2 reads the visibility weight per second by a named field and keeps
+each behaviour's typed state (runs of /1 must be retrained)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class TrainRunCfg:
+    """Train a catching policy with PPO."""
+
+    method: str = "sp_rl"
+    """A trained method of dyncatch.rl.methods.METHODS (sp_fp is gt_rl evaluated with the
+    predictor)."""
+    behavior: str = "reactive"
+    """Target behaviour, a key of dyncatch.sim.behaviors.BEHAVIORS."""
+    total_steps: int = 2_000_000
+    """Environment steps to train for (rounded up to whole iterations)."""
+    seed: int = 0
+    """Training seed."""
+    out: Path = Path("runs/train")
+    """Run folder: checkpoint.safetensors, metrics.csv, tb/."""
+    predictor: Path | None = None
+    """Predictor checkpoint (from dyncatch predictor train) for p_rl and sp_rl."""
+    checkpoint_every: int = 20
+    """Iterations between checkpoints (one is always written at the end)."""
+    resume: bool = False
+    """Continue the run in --out from its checkpoint (same config required)."""
+    eval_every: int = 10
+    """Iterations between evaluations of the mean-action policy (0: never). The training
+    success_rate column is biased upwards (catches end sooner, so they are over-represented
+    among the episodes that end in an iteration); eval/success_rate is not."""
+    eval_episodes: int = 200
+    """Episodes per evaluation: the same evaluation seeds every time, disjoint from training."""
+    eval_speed_mps: float = 1.8
+    """Target speed of the evaluation episodes."""
+    ppo: PPOCfg = PPOCfg()
+    """PPO hyper-parameters and batch geometry."""
+    world: WorldCfg = WorldCfg()
+    """The simulated world (the library's default is the training default)."""
+
+
+def header_of(cfg: TrainRunCfg) -> dict:
+    """What a checkpoint records, and must agree on to be resumed."""
+    return {
+        "format": TRAIN_FORMAT,
+        "method": cfg.method,
+        "behavior": cfg.behavior,
+        "seed": cfg.seed,
+        "predictor": str(cfg.predictor) if cfg.predictor else None,
+        "ppo": dataclasses.asdict(cfg.ppo),
+        "world": dataclasses.asdict(cfg.world.with_behavior(cfg.behavior)),
+    }
+
+
+def _validate(cfg: TrainRunCfg) -> None:
+    if cfg.total_steps < 1 or cfg.checkpoint_every < 1:
+        raise ValueError("--total-steps and --checkpoint-every must be >= 1")
+    if cfg.eval_every < 0 or cfg.eval_episodes < 1 or cfg.eval_speed_mps < 0:
+        raise ValueError(
+            "--eval-every must be >= 0, --eval-episodes >= 1 and --eval-speed-mps >= 0"
+        )
+    method = get_method(cfg.method)
+    if not method.trained:
+        raise ValueError(
+            f"method {cfg.method!r} is not trained: train {method.trained_as!r} "
+            f"and evaluate it as {cfg.method!r}"
+        )
+    if method.predictor_kind is not None and cfg.predictor is None:
+        raise ValueError(f"method {cfg.method!r} needs --predictor PATH")
+
+
+class TrainRunner:
+    """One training run: build it from a config, then ``learn``.
+
+    ``env`` is the backend to train in (default the JAX world); the config's world is set
+    on it, so a second backend trains with no other change.
+    """
+
+    def __init__(self, cfg: TrainRunCfg, env: Environment | None = None):
+        from dyncatch.sim.validate import validate_world
+
+        _validate(cfg)
+        self.cfg = cfg
+        self.ppo = validate_ppo(cfg.ppo)
+        world = validate_world(cfg.world.with_behavior(cfg.behavior))
+        self.env = (env if env is not None else JaxCatchEnv()).with_world(world)
+        predictor = params = None
+        if get_method(cfg.method).predictor_kind is not None:
+            from dyncatch.predictor.checkpoint import load as load_predictor
+
+            predictor, params = load_predictor(cfg.predictor)
+        self.obs_fn = get_method(cfg.method).obs_fn(predictor, params)
+        init, iterate, self.net = make_train(self.env, self.ppo, self.obs_fn)
+        self._init, self._iterate = jax.jit(init), jax.jit(iterate)
+        self.header = header_of(cfg)
+        self.checkpoint = cfg.out / CHECKPOINT
+
+    def save(self, ts: TrainState) -> Path:
+        """Write the checkpoint atomically, with the run's header."""
+        from dyncatch.utils.tree_io import save_tree
+
+        return save_tree(self.checkpoint, ts, self.header)
+
+    def load(self) -> TrainState:
+        """The checkpoint in ``out``; refused if it was trained with other settings."""
+        from dyncatch.utils.tree_io import load_tree
+
+        ts, saved = load_tree(self.checkpoint, self._init(jax.random.key(self.cfg.seed)))
+        want = json.loads(json.dumps(self.header))
+        diff = [k for k in want if saved.get(k) != want[k]]
+        if diff:
+            raise ValueError(
+                f"{self.checkpoint} was trained with other {', '.join(diff)}; "
+                "resume with the same flags or choose another --out"
+            )
+        return ts
+
+    def initial_state(self) -> TrainState:
+        """A fresh state, or the checkpoint's when resuming; never overwrites a run."""
+        if self.cfg.resume:
+            return self.load()
+        if self.checkpoint.exists():
+            raise ValueError(
+                f"{self.checkpoint} exists: pass --resume to continue it or choose another --out"
+            )
+        return self._init(jax.random.key(self.cfg.seed))
+
+    def evaluate(self, ts: TrainState) -> dict[str, float]:
+        """Unbiased success and catch time of the mean-action policy at ``eval_speed_mps``,
+        on evaluation seeds disjoint from training (the same seeds at every call)."""
+        from dyncatch.evaluation.episodes import run_episodes
+        from dyncatch.evaluation.grid import EVAL_STREAM
+        from dyncatch.rl.policy import LearnedPolicy
+
+        policy = LearnedPolicy(self.net, ts.params, ts.norm, self.obs_fn, self.env)
+        key = jax.random.fold_in(jax.random.key(self.cfg.seed), EVAL_STREAM)
+        env = self.env.with_world(self.env.world.with_speed(self.cfg.eval_speed_mps))
+        out = jax.device_get(run_episodes(policy, key, env, self.cfg.eval_episodes))
+        return {
+            "eval/success_rate": float(out["success"].mean()),
+            "eval/catch_time_s": float(out["catch_time_s"].mean()),
+        }
+
+    def learn(self, progress: Progress | None = None) -> dict[str, float]:
+        """Train to ``total_steps``; returns the last iteration's metrics."""
+        from dyncatch.rl.logging import MetricLog
+
+        cfg, ppo = self.cfg, self.ppo
+        ts = self.initial_state()
+        cfg.out.mkdir(parents=True, exist_ok=True)
+        start = int(ts.iteration)
+        total_iters = -(-cfg.total_steps // ppo.batch_size)
+        log = MetricLog(cfg.out, resume_iteration=start)
+        update = (progress or NoProgress()).task(
+            f"{cfg.method} vs {cfg.behavior}", total_iters, start
+        )
+        update(start, "compiling")
+        metrics: dict[str, float] = {}
+        # Wall-clock seconds of training (compilation included, evaluations excluded),
+        # continued across resumes.
+        clock0 = time.perf_counter() - log.last("time_s")
+        t0 = None  # the rate's clock starts after the first (compiling) iteration
+        for it in range(start, total_iters):
+            ts, m = self._iterate(ts)
+            metrics = {k: float(v) for k, v in jax.device_get(m).items()}
+            metrics["time_s"] = time.perf_counter() - clock0
+            if cfg.eval_every and (
+                (it + 1) % cfg.eval_every == 0 or it == start or it + 1 == total_iters
+            ):
+                t_eval = time.perf_counter()
+                metrics.update(self.evaluate(ts))
+                clock0 += time.perf_counter() - t_eval
+            else:
+                metrics.update({"eval/success_rate": "", "eval/catch_time_s": ""})
+            log.write(it + 1, int(ts.env_steps), metrics)
+            if t0 is None:
+                t0, done0 = time.perf_counter(), it + 1
+            elapsed = time.perf_counter() - t0
+            rate = (it + 1 - done0) * ppo.batch_size / elapsed if elapsed > 0 else 0.0
+            update(it + 1, f"{rate:,.0f} samples/s  success {metrics['success_rate']:.2f}")
+            if (it + 1) % cfg.checkpoint_every == 0 or it + 1 == total_iters:
+                self.save(ts)
+        log.close()
+        return metrics
