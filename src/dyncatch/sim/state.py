@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -36,8 +37,9 @@ class TargetState:
     """Current speed, ()."""
     speed_cap_mps: jax.Array
     """This episode's speed cap, drawn at reset, ()."""
-    memory: jax.Array
-    """Behaviour-owned scratch values, (4,); see each behaviour for their meaning."""
+    behavior_state: Any
+    """The behaviour's own state pytree (e.g. ``CircleState``), its ``init_state`` makes it;
+    its structure depends on the behaviour, which is static per compiled world."""
 
     @property
     def vel_mps(self) -> jax.Array:

@@ -1,11 +1,22 @@
-"""Target behaviours by name. A new behaviour is one function and one line here."""
+"""Target behaviours by name, and ``TargetCfg`` composed from their config classes.
+
+A new behaviour is one module (a ``Behavior`` with its config class and state) and one line
+in ``BEHAVIORS``; its fields then appear in ``TargetCfg``, on the command line as
+``--world.target.<field>`` and in checkpoint headers.
+"""
 
 from __future__ import annotations
 
-from dyncatch.sim.behaviors.base import MEMORY_SIZE, Behavior
+from dyncatch.sim.behaviors.base import Behavior, NoState, TargetBodyCfg
 from dyncatch.sim.behaviors.bounce import BOUNCE
-from dyncatch.sim.behaviors.circle import CIRCLE
-from dyncatch.sim.behaviors.reactive import RANDOM_REACTIVE, REACTIVE
+from dyncatch.sim.behaviors.circle import CIRCLE, CircleCfg, CircleState
+from dyncatch.sim.behaviors.compose import compose_target_cfg
+from dyncatch.sim.behaviors.random_reactive import (
+    RANDOM_REACTIVE,
+    RandomReactiveCfg,
+    RandomReactiveState,
+)
+from dyncatch.sim.behaviors.reactive import REACTIVE, ReactiveCfg
 
 BEHAVIORS: dict[str, Behavior] = {
     "circle": CIRCLE,
@@ -13,6 +24,10 @@ BEHAVIORS: dict[str, Behavior] = {
     "reactive": REACTIVE,
     "random_reactive": RANDOM_REACTIVE,
 }
+
+TargetCfg = compose_target_cfg(
+    BEHAVIORS.values(), doc="The planar target body and its behaviour parameters."
+)
 
 
 def get_behavior(name: str) -> Behavior:
@@ -23,4 +38,16 @@ def get_behavior(name: str) -> Behavior:
         raise ValueError(f"unknown target behavior {name!r}: choose one of {known}") from None
 
 
-__all__ = ["BEHAVIORS", "MEMORY_SIZE", "Behavior", "get_behavior"]
+__all__ = [
+    "BEHAVIORS",
+    "Behavior",
+    "CircleCfg",
+    "CircleState",
+    "NoState",
+    "RandomReactiveCfg",
+    "RandomReactiveState",
+    "ReactiveCfg",
+    "TargetBodyCfg",
+    "TargetCfg",
+    "get_behavior",
+]
