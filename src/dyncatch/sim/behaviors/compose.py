@@ -75,3 +75,17 @@ def compose_target_cfg(behaviors: Iterable[Behavior], doc: str) -> type:
     leaves = [c for c in classes if not any(o is not c and issubclass(o, c) for o in classes)]
     namespace = {"__doc__": doc, "__module__": __name__.rsplit(".", 1)[0]}
     return struct.dataclass(type("TargetCfg", tuple(reversed(leaves)), namespace))
+
+
+def missing_fields(cfg_cls: type | None, target_cfg: type) -> list[str]:
+    """Fields of ``cfg_cls`` that ``target_cfg`` lacks or defaults differently, one line each."""
+    if cfg_cls is None:
+        return []
+    have = {f.name: _default(f) for f in dataclasses.fields(target_cfg)}
+    out = []
+    for f in dataclasses.fields(cfg_cls):
+        if f.name not in have:
+            out.append(f"target.{f.name} (not a field of TargetCfg)")
+        elif have[f.name] != _default(f):
+            out.append(f"target.{f.name} (default {_default(f)!r}, TargetCfg's {have[f.name]!r})")
+    return out
