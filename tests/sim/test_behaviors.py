@@ -7,8 +7,15 @@ import jax.numpy as jnp
 import numpy as np
 
 from dyncatch.sim import env
-from dyncatch.sim.behaviors import BEHAVIORS, get_behavior
+from dyncatch.sim.behaviors import (
+    BEHAVIORS,
+    CircleState,
+    NoState,
+    RandomReactiveState,
+    get_behavior,
+)
 from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.geometry import wrap_angle
 
 from .helpers import fixed_rollout
 
@@ -110,13 +117,55 @@ def test_reactive_dodges_to_its_own_side_when_the_robot_is_close():
     assert abs(float(jnp.mean(heads3)) - math.atan2(1.0, 5.0)) < 0.02
 
 
+def test_circle_state_is_a_direction_of_plus_or_minus_one_that_never_changes():
+    cfg = CFG.with_behavior("circle").with_speed(1.0)
+    keys = jax.random.split(jax.random.key(11), 64)
+    starts = jax.vmap(env.reset, in_axes=(0, None))(keys, cfg)
+    assert isinstance(starts.target.behavior_state, CircleState)
+    directions = np.asarray(starts.target.behavior_state.direction)
+    assert set(directions.tolist()) == {-1.0, 1.0}  # a fair coin: both show up in 64 draws
+    # The start heading is the tangent in that direction: +90 deg from the radial for +1.
+    rel = starts.target.xy_m - 0.5 * cfg.arena.size_m
+    radial = jnp.arctan2(rel[:, 1], rel[:, 0])
+    turn = np.asarray(wrap_angle(starts.target.heading_rad - radial))
+    np.testing.assert_allclose(turn, directions * math.pi / 2, atol=1e-5)
+    s = _start(cfg, seed=5, robot_xy=(0.5, 0.5))
+    states, _, _ = fixed_rollout(s, STILL, cfg, 200)
+    kept = np.asarray(states.target.behavior_state.direction)
+    np.testing.assert_array_equal(kept, float(s.target.behavior_state.direction))
+    # And the target really goes round that way: the polar angle moves with the direction.
+    ang = np.unwrap(np.arctan2(*(np.asarray(states.target.xy_m) - 8.0).T[::-1]))
+    assert np.sign(ang[-1] - ang[0]) == kept[0]
+
+
+def test_stateless_behaviors_carry_an_empty_state():
+    for name in ("bounce", "reactive"):
+        s = jax.jit(env.reset)(jax.random.key(0), CFG.with_behavior(name))
+        assert isinstance(s.target.behavior_state, NoState)
+        assert jax.tree.leaves(s.target.behavior_state) == []
+
+
 def test_random_reactive_adds_held_offsets():
     cfg = CFG.with_behavior("random_reactive").with_speed(1.0)
     s = _start(cfg, robot_xy=(2.0, 8.0), robot_yaw=0.0, target_xy=(7.0, 8.0))
+    first = s.target.behavior_state
+    assert isinstance(first, RandomReactiveState)
+    assert float(first.offset_rad) == float(first.next_change_in_s) == 0.0  # drawn at step 1
     states, _, _ = fixed_rollout(s, STILL, cfg, 500)
-    mem = np.asarray(states.target.memory)
-    offsets = mem[:, 0]
+    st = states.target.behavior_state
+    offsets, next_in, hold = (
+        np.asarray(x) for x in (st.offset_rad, st.next_change_in_s, st.hold_left_s)
+    )
     changes = np.count_nonzero(np.diff(offsets))
     # Mean interval 1 s: about 10 changes in 10 s (Poisson, so allow a wide band).
     assert 3 <= changes <= 20
     assert np.abs(offsets).max() <= cfg.target.random_turn_max_rad + 1e-6
+    # A new offset comes with a fresh hold of random_turn_hold_s and a positive interval.
+    drawn = np.flatnonzero(np.diff(offsets)) + 1
+    np.testing.assert_allclose(hold[drawn], cfg.target.random_turn_hold_s)
+    assert (next_in[drawn] > 0).all()
+    # Between draws both clocks run down by one control step.
+    calm = np.setdiff1d(np.arange(1, len(offsets)), drawn)
+    dt = cfg.episode.dt_s
+    np.testing.assert_allclose(np.diff(hold)[calm - 1], -dt, atol=1e-5)
+    np.testing.assert_allclose(np.diff(next_in)[calm - 1], -dt, atol=1e-5)

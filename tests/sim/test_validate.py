@@ -25,3 +25,22 @@ def test_bad_values_name_their_field(cfg, field):
 
 def test_defaults_are_valid():
     assert validate_world(CFG) is CFG
+
+
+def _target(**fields):
+    return CFG.replace(target=CFG.target.replace(**fields))
+
+
+def test_the_active_behavior_checks_its_own_fields():
+    too_big = _target(circle_radius_m=8.0)  # a 16 m circle does not fit a 16 m arena
+    with pytest.raises(ConfigError, match=r"target\.circle_radius_m"):
+        validate_world(too_big.with_behavior("circle"))
+    # The circle's radius is no concern of the other behaviours.
+    for name in ("bounce", "reactive", "random_reactive"):
+        assert validate_world(too_big.with_behavior(name)).target.behavior == name
+    # random_reactive reuses reactive's parameters, and so reactive's checks.
+    negative = _target(evade_radius_m=-1.0)
+    for name in ("reactive", "random_reactive"):
+        with pytest.raises(ConfigError, match=r"target\.evade_radius_m"):
+            validate_world(negative.with_behavior(name))
+    assert validate_world(negative.with_behavior("circle")).target.evade_radius_m == -1.0

@@ -3,7 +3,8 @@
 Each ``*Cfg`` is a frozen dataclass and a JAX pytree at once: numeric fields are leaves (so a
 jitted step takes them as arguments and can be ``vmap``-ed over them), fields marked
 ``static`` shape the computation and are compile-time constants. The defaults and their
-sources are listed in ``docs/model.md``.
+sources are listed in ``docs/model.md``. ``TargetCfg`` is composed in
+``dyncatch.sim.behaviors`` from the target body's fields and each behaviour's own config class.
 """
 
 from __future__ import annotations
@@ -13,10 +14,8 @@ from typing import Literal
 
 from flax import struct
 
-
-def static(default):
-    """A config field that is a compile-time constant (changing it recompiles)."""
-    return struct.field(pytree_node=False, default=default)
+from dyncatch.sim.behaviors import TargetCfg
+from dyncatch.sim.fields import static
 
 
 @struct.dataclass
@@ -100,38 +99,6 @@ class ArmCfg:
     """The catch point sits this far below the gripper."""
     catch_radius_m: float = 0.05
     """Success: target centre within this distance of the catch point (d_suc)."""
-
-
-@struct.dataclass
-class TargetCfg:
-    """The planar target body and its behaviour parameters."""
-
-    behavior: str = static("reactive")
-    """Behaviour, a key of ``dyncatch.sim.behaviors.BEHAVIORS``."""
-    speed_min_mps: float = 0.8
-    """Lower end of the per-episode speed cap."""
-    speed_max_mps: float = 1.8
-    """Upper end of the per-episode speed cap."""
-    max_turn_rate_rps: float = 10.0
-    """Largest heading rate of the target (a quick animal turns about 2 turns per second)."""
-    radius_m: float = 0.10
-    """Body radius, kept off walls."""
-    height_m: float = 0.15
-    """Height of the target centre above the ground."""
-    circle_radius_m: float = 5.0
-    """Radius of the circle path (paper: 5 m), centred in the arena."""
-    evade_radius_m: float = 3.0
-    """r_ev of eq. 12: closer than this, the target dodges sideways."""
-    evade_angle_rad: float = math.radians(60.0)
-    """alpha of eq. 12: the dodge angle added to the flee direction."""
-    gamma_max_rad: float = math.radians(22.5)
-    """gamma ~ U(-gamma_max, gamma_max) of eq. 12, drawn every control step."""
-    random_turn_max_rad: float = math.radians(90.0)
-    """random_reactive: heading offsets are drawn from U(-max, max)."""
-    random_turn_mean_interval_s: float = 1.0
-    """random_reactive: mean time between offset changes (exponential intervals)."""
-    random_turn_hold_s: float = 0.5
-    """random_reactive: how long an offset lasts once drawn."""
 
 
 @struct.dataclass

@@ -59,12 +59,16 @@ def reset(key: jax.Array, cfg: WorldCfg) -> EnvState:
     """A new episode: target placed by its behaviour, robot 2-6 m away facing anywhere."""
     behavior = get_behavior(cfg.target.behavior)
     k_target, k_speed, k_place, k_yaw, k_sense, k_next = jax.random.split(key, 6)
-    t_xy, t_heading, memory = behavior.reset(k_target, cfg)
+    t_xy, t_heading, behavior_state = behavior.init_state(k_target, cfg)
     speed = jax.random.uniform(
         k_speed, (), minval=cfg.target.speed_min_mps, maxval=cfg.target.speed_max_mps
     )
     target = TargetState(
-        xy_m=t_xy, heading_rad=t_heading, speed_mps=speed, speed_cap_mps=speed, memory=memory
+        xy_m=t_xy,
+        heading_rad=t_heading,
+        speed_mps=speed,
+        speed_cap_mps=speed,
+        behavior_state=behavior_state,
     )
     q = jnp.asarray(cfg.arm.stow_rad, jnp.float32)
     robot = RobotState(
@@ -139,8 +143,8 @@ def step(state: EnvState, action: jax.Array, cfg: WorldCfg):
     command = clip_command(action, cfg.base)
 
     robot = add_gait_noise(state.robot, jax.random.normal(k_gait, (3,)), cfg.base)
-    heading, memory = behavior.desired_heading(state.target, robot, cfg, k_behavior)
-    target = steer(state.target.replace(memory=memory), heading, cfg.target, dt_s)
+    heading, behavior_state = behavior.desired_heading(state.target, robot, cfg, k_behavior)
+    target = steer(state.target.replace(behavior_state=behavior_state), heading, cfg.target, dt_s)
 
     # The catch is checked at every sub-step (200 Hz), before each arm update and at the end.
     best_err = jnp.full((), jnp.inf)

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import dataclasses
+import math
+from typing import Any
+
 import jax
 import jax.numpy as jnp
 from flax import struct
@@ -33,8 +37,9 @@ class TargetState:
     """Current speed, ()."""
     speed_cap_mps: jax.Array
     """This episode's speed cap, drawn at reset, ()."""
-    memory: jax.Array
-    """Behaviour-owned scratch values, (4,); see each behaviour for their meaning."""
+    behavior_state: Any
+    """The behaviour's own state pytree (e.g. ``CircleState``), its ``init_state`` makes it;
+    its structure depends on the behaviour, which is static per compiled world."""
 
     @property
     def vel_mps(self) -> jax.Array:
@@ -84,39 +89,46 @@ class EnvState:
     """Planar robot-target distance after the last step (for eq. 6), ()."""
 
 
+def obs_field(shape: tuple[int, ...]):
+    """An ``Obs`` field of per-environment ``shape``; it takes prod(shape) slots of ``flat``."""
+    return struct.field(metadata={"shape": shape})
+
+
 @struct.dataclass
 class Obs:
-    """What a policy may see. ``flat`` is the network view, (OBS_DIM,)."""
+    """What a policy may see. ``flat`` is the network view, (..., OBS_DIM), fields in order."""
 
-    robot_xy_m: jax.Array
-    robot_yaw_cos_sin: jax.Array
-    robot_vel_body_mps: jax.Array
-    robot_yaw_rate_rps: jax.Array
-    target_obs_xy_m: jax.Array
+    robot_xy_m: jax.Array = obs_field((2,))
+    robot_yaw_cos_sin: jax.Array = obs_field((2,))
+    robot_vel_body_mps: jax.Array = obs_field((2,))
+    robot_yaw_rate_rps: jax.Array = obs_field(())
+    target_obs_xy_m: jax.Array = obs_field((2,))
     """Last observed target position in the world, (2,)."""
-    target_obs_body_m: jax.Array
+    target_obs_body_m: jax.Array = obs_field((2,))
     """The same point in the current base frame, (2,)."""
-    time_since_seen_s: jax.Array
-    visible: jax.Array
+    time_since_seen_s: jax.Array = obs_field(())
+    visible: jax.Array = obs_field(())
     """1.0 if the last camera frame saw the target."""
-    wall_distance_m: jax.Array
+    wall_distance_m: jax.Array = obs_field((4,))
     """Distance from the base centre to the walls (-x, +x, -y, +y), (4,): s_env."""
 
     @property
     def flat(self) -> jax.Array:
-        parts = [
-            self.robot_xy_m,
-            self.robot_yaw_cos_sin,
-            self.robot_vel_body_mps,
-            self.robot_yaw_rate_rps[..., None],
-            self.target_obs_xy_m,
-            self.target_obs_body_m,
-            self.time_since_seen_s[..., None],
-            self.visible[..., None],
-            self.wall_distance_m,
-        ]
+        """Every field flattened and concatenated in declaration order, (..., OBS_DIM)."""
+        parts = []
+        for f in dataclasses.fields(self):
+            x, shape = getattr(self, f.name), f.metadata["shape"]
+            batch = x.shape[: x.ndim - len(shape)]
+            parts.append(x.reshape(*batch, math.prod(shape)))
         return jnp.concatenate(parts, axis=-1)
 
 
-OBS_DIM = 17
+def _obs_dim() -> int:
+    zeros = {f.name: jnp.zeros(f.metadata["shape"]) for f in dataclasses.fields(Obs)}
+    return jax.eval_shape(lambda: Obs(**zeros).flat).shape[-1]
+
+
+OBS_DIM = _obs_dim()
+"""Length of ``Obs.flat``, derived from the fields' shapes (so a new field updates it)."""
 ACTION_DIM = 3
+"""Base command (vx, vy, yaw rate)."""

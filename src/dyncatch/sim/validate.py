@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dyncatch.sim.behaviors import BEHAVIORS
+from dyncatch.sim.behaviors import BEHAVIORS, get_behavior
 from dyncatch.sim.config import WorldCfg
 
 
@@ -31,12 +31,8 @@ def validate_world(cfg: WorldCfg) -> WorldCfg:
             f"need 0 <= min <= max, got {t.speed_min_mps} and {t.speed_max_mps}",
         ),
         (t.max_turn_rate_rps > 0, "target.max_turn_rate_rps", "must be positive"),
-        (
-            2 * t.circle_radius_m < cfg.arena.size_m - 2 * t.radius_m,
-            "target.circle_radius_m",
-            "the circle must fit inside the arena",
-        ),
-        (t.evade_radius_m >= 0, "target.evade_radius_m", "must be >= 0"),
+        # The active behaviour checks its own parameters (the others are not used).
+        *(get_behavior(t.behavior).validate(cfg) if t.behavior in BEHAVIORS else []),
         (
             s.rate_hz > 0 and s.rate_hz <= e.control_hz,
             "sensor.rate_hz",

@@ -1,11 +1,26 @@
-"""Target behaviours by name. A new behaviour is one function and one line here."""
+"""Target behaviours by name, and ``TargetCfg`` composed from their config classes.
+
+A new behaviour is one module (a ``Behavior`` with its config class and state) and one line
+in ``BEHAVIORS``; its fields then appear in ``TargetCfg``, on the command line as
+``--world.target.<field>`` and in checkpoint headers. ``register_behavior`` adds one at run
+time (tests, plugins) if its fields are already part of ``TargetCfg``.
+"""
 
 from __future__ import annotations
 
-from dyncatch.sim.behaviors.base import MEMORY_SIZE, Behavior
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+from dyncatch.sim.behaviors.base import Behavior, NoState, TargetBodyCfg
 from dyncatch.sim.behaviors.bounce import BOUNCE
-from dyncatch.sim.behaviors.circle import CIRCLE
-from dyncatch.sim.behaviors.reactive import RANDOM_REACTIVE, REACTIVE
+from dyncatch.sim.behaviors.circle import CIRCLE, CircleCfg, CircleState
+from dyncatch.sim.behaviors.compose import compose_target_cfg, missing_fields
+from dyncatch.sim.behaviors.random_reactive import (
+    RANDOM_REACTIVE,
+    RandomReactiveCfg,
+    RandomReactiveState,
+)
+from dyncatch.sim.behaviors.reactive import REACTIVE, ReactiveCfg
 
 BEHAVIORS: dict[str, Behavior] = {
     "circle": CIRCLE,
@@ -13,6 +28,12 @@ BEHAVIORS: dict[str, Behavior] = {
     "reactive": REACTIVE,
     "random_reactive": RANDOM_REACTIVE,
 }
+
+TargetCfg = compose_target_cfg(
+    BEHAVIORS.values(), doc="The planar target body and its behaviour parameters."
+)
+
+_BUILT_IN = frozenset(BEHAVIORS)
 
 
 def get_behavior(name: str) -> Behavior:
@@ -23,4 +44,59 @@ def get_behavior(name: str) -> Behavior:
         raise ValueError(f"unknown target behavior {name!r}: choose one of {known}") from None
 
 
-__all__ = ["BEHAVIORS", "MEMORY_SIZE", "Behavior", "get_behavior"]
+def register_behavior(name: str, behavior: Behavior, replace: bool = False) -> None:
+    """Add ``behavior`` to ``BEHAVIORS`` at run time.
+
+    ``TargetCfg`` was composed at import, so the behaviour's ``cfg_cls`` may only declare
+    fields it already has, with the same defaults (a parameterless behaviour always fits).
+    Raises ValueError for a taken name (unless ``replace``) or a field ``TargetCfg`` lacks.
+    """
+    if name in BEHAVIORS and not replace:
+        raise ValueError(f"behavior {name!r} is already registered; pass replace=True")
+    missing = missing_fields(behavior.cfg_cls, TargetCfg)
+    if missing:
+        raise ValueError(
+            f"behavior {name!r} declares {', '.join(missing)}: TargetCfg is composed at import, "
+            "so add its module to BEHAVIORS in dyncatch/sim/behaviors/__init__.py instead of "
+            "registering it at run time, or read only existing fields"
+        )
+    BEHAVIORS[name] = behavior
+
+
+def unregister_behavior(name: str) -> None:
+    """Remove a behaviour added with ``register_behavior`` (built-in ones stay)."""
+    if name in _BUILT_IN:
+        raise ValueError(f"behavior {name!r} is built in; it cannot be unregistered")
+    if name not in BEHAVIORS:
+        raise ValueError(f"behavior {name!r} is not registered")
+    del BEHAVIORS[name]
+
+
+@contextmanager
+def registered_behavior(name: str, behavior: Behavior, replace: bool = False) -> Iterator[None]:
+    """``register_behavior`` for the ``with`` block; ``BEHAVIORS`` is restored afterwards."""
+    saved = dict(BEHAVIORS)
+    register_behavior(name, behavior, replace=replace)
+    try:
+        yield
+    finally:
+        BEHAVIORS.clear()
+        BEHAVIORS.update(saved)
+
+
+__all__ = [
+    "BEHAVIORS",
+    "Behavior",
+    "CircleCfg",
+    "CircleState",
+    "NoState",
+    "RandomReactiveCfg",
+    "RandomReactiveState",
+    "ReactiveCfg",
+    "TargetBodyCfg",
+    "TargetCfg",
+    "get_behavior",
+    "register_behavior",
+    "registered_behavior",
+    "unregister_behavior",
+]

@@ -1,47 +1,101 @@
-"""What a target behaviour is, and the shared helpers behaviours build on."""
+"""What a target behaviour is, the body config every behaviour shares, and shared helpers."""
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import jax
 import jax.numpy as jnp
+from flax import struct
 
-from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.fields import static
 from dyncatch.sim.state import RobotState, TargetState
 
-MEMORY_SIZE = 4
-
-DesiredHeadingFn = Callable[
-    [TargetState, RobotState, WorldCfg, jax.Array], tuple[jax.Array, jax.Array]
-]
-"""(target, robot, cfg, key) -> (desired heading (), new memory (MEMORY_SIZE,))."""
-
-ResetFn = Callable[[jax.Array, WorldCfg], tuple[jax.Array, jax.Array, jax.Array]]
-"""(key, cfg) -> (xy (2,), heading (), memory (MEMORY_SIZE,))."""
+if TYPE_CHECKING:
+    from dyncatch.sim.config import WorldCfg
 
 
-def uniform_reset(key: jax.Array, cfg: WorldCfg) -> tuple[jax.Array, jax.Array, jax.Array]:
-    """Anywhere at least 1 m from the walls, any heading, empty memory."""
+@struct.dataclass
+class TargetBodyCfg:
+    """The planar target body, whatever its behaviour."""
+
+    behavior: str = static("reactive")
+    """Behaviour, a key of ``dyncatch.sim.behaviors.BEHAVIORS``."""
+    speed_min_mps: float = 0.8
+    """Lower end of the per-episode speed cap."""
+    speed_max_mps: float = 1.8
+    """Upper end of the per-episode speed cap."""
+    max_turn_rate_rps: float = 10.0
+    """Largest heading rate of the target (a quick animal turns about 2 turns per second)."""
+    radius_m: float = 0.10
+    """Body radius, kept off walls."""
+    height_m: float = 0.15
+    """Height of the target centre above the ground."""
+
+
+@struct.dataclass
+class NoState:
+    """The state of a behaviour that remembers nothing between steps (no leaves)."""
+
+
+Check = tuple[bool, str, str]
+"""(ok, dotted field name, what is wrong and what to do), as ``sim.validate`` reports it."""
+
+DesiredHeadingFn = Callable[[TargetState, RobotState, "WorldCfg", jax.Array], tuple[Any, Any]]
+"""(target, robot, world_cfg, key) -> (desired heading (), new behaviour state pytree)."""
+
+InitStateFn = Callable[[jax.Array, "WorldCfg"], tuple[jax.Array, jax.Array, Any]]
+"""(key, world_cfg) -> (xy (2,), heading (), behaviour state pytree)."""
+
+ValidateFn = Callable[["WorldCfg"], list[Check]]
+"""world_cfg -> the behaviour's own checks; ``sim.validate`` raises on the first failed one."""
+
+
+def uniform_init(key: jax.Array, cfg: WorldCfg) -> tuple[jax.Array, jax.Array, NoState]:
+    """Anywhere at least 1 m from the walls, any heading, no behaviour state."""
     k_xy, k_h = jax.random.split(key)
     margin = 1.0
     xy = jax.random.uniform(k_xy, (2,), minval=margin, maxval=cfg.arena.size_m - margin)
     heading = jax.random.uniform(k_h, (), minval=-jnp.pi, maxval=jnp.pi)
-    return xy, heading, jnp.zeros(MEMORY_SIZE)
+    return xy, heading, NoState()
+
+
+def no_checks(cfg: WorldCfg) -> list[Check]:
+    """A behaviour without parameters of its own has nothing to check."""
+    del cfg
+    return []
 
 
 @dataclass(frozen=True)
 class Behavior:
-    """A target behaviour: one pure policy and how the body meets walls.
+    """A target behaviour: its parameters, its state, one pure policy and how it meets walls.
 
-    ``desired_heading`` is eq. 1's pi_obj: it sees the target, the robot (reactive targets
-    react to it), the world config and a key. The body then turns toward the heading under
-    the turn-rate limit and moves at the episode's speed cap.
+    ``desired_heading`` is eq. 1's pi_obj: it sees the target (its ``behavior_state`` is this
+    behaviour's state pytree), the robot (reactive targets react to it), the world config and
+    a key. The body then turns toward the heading under the turn-rate limit and moves at the
+    episode's speed cap.
     """
 
     desired_heading: DesiredHeadingFn
+    cfg_cls: type | None = None
+    """A ``struct.dataclass`` of this behaviour's own parameters (every field with a default),
+    read from ``world_cfg.target``; ``None`` or ``TargetBodyCfg``: no parameters of its own."""
+    init_state: InitStateFn = uniform_init
+    """Where an episode starts and the behaviour's first state."""
+    validate: ValidateFn = no_checks
+    """Checks of the behaviour's own parameters."""
     reflects_off_walls: bool = False
     """True: hitting a wall mirrors the heading (a bounce); False: the body slides along it."""
-    reset: ResetFn = uniform_reset
     doc: str = ""
+    """One line for tables and ``--help``."""
+
+    @property
+    def param_names(self) -> tuple[str, ...]:
+        """Names of this behaviour's own fields of ``TargetCfg`` (the body's excluded)."""
+        if self.cfg_cls is None:
+            return ()
+        body = {f.name for f in dataclasses.fields(TargetBodyCfg)}
+        return tuple(f.name for f in dataclasses.fields(self.cfg_cls) if f.name not in body)

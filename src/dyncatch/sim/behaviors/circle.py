@@ -2,15 +2,32 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import jax
 import jax.numpy as jnp
+from flax import struct
 
-from dyncatch.sim.behaviors.base import MEMORY_SIZE, Behavior
-from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.behaviors.base import Behavior, Check
 from dyncatch.sim.state import RobotState, TargetState
+
+if TYPE_CHECKING:
+    from dyncatch.sim.config import WorldCfg
 
 # How strongly the heading leans toward the circle when off it (rad per metre of error).
 _RADIAL_GAIN_RAD_PER_M = 1.0
+
+
+@struct.dataclass
+class CircleCfg:
+    circle_radius_m: float = 5.0
+    """Radius of the circle path (paper: 5 m), centred in the arena."""
+
+
+@struct.dataclass
+class CircleState:
+    direction: jax.Array
+    """Direction of travel, (): +1.0 counter-clockwise, -1.0 clockwise; drawn at reset."""
 
 
 def _centre(cfg: WorldCfg) -> jax.Array:
@@ -19,29 +36,42 @@ def _centre(cfg: WorldCfg) -> jax.Array:
 
 def circle_heading(
     target: TargetState, robot: RobotState, cfg: WorldCfg, key: jax.Array
-) -> tuple[jax.Array, jax.Array]:
-    """memory[0] is the direction of travel: +1 counter-clockwise, -1 clockwise."""
+) -> tuple[jax.Array, CircleState]:
+    """Tangent to the circle, leaning toward it when off it (the state is kept)."""
     del robot, key
-    direction = target.memory[0]
+    state: CircleState = target.behavior_state
     rel = target.xy_m - _centre(cfg)
     radial = jnp.arctan2(rel[1], rel[0])
     radius_err = jnp.linalg.norm(rel) - cfg.target.circle_radius_m
     lean = jnp.clip(_RADIAL_GAIN_RAD_PER_M * radius_err, -0.5 * jnp.pi, 0.5 * jnp.pi)
-    heading = radial + direction * (0.5 * jnp.pi + lean)
-    return heading, target.memory
+    heading = radial + state.direction * (0.5 * jnp.pi + lean)
+    return heading, state
 
 
-def circle_reset(key: jax.Array, cfg: WorldCfg) -> tuple[jax.Array, jax.Array, jax.Array]:
+def circle_init(key: jax.Array, cfg: WorldCfg) -> tuple[jax.Array, jax.Array, CircleState]:
+    """On the circle at a random phase, heading along it in a random direction."""
     k_phase, k_dir = jax.random.split(key)
     phase = jax.random.uniform(k_phase, (), minval=-jnp.pi, maxval=jnp.pi)
     direction = jnp.where(jax.random.bernoulli(k_dir), 1.0, -1.0)
     xy = _centre(cfg) + cfg.target.circle_radius_m * jnp.stack([jnp.cos(phase), jnp.sin(phase)])
-    memory = jnp.zeros(MEMORY_SIZE).at[0].set(direction)
-    return xy, phase + direction * 0.5 * jnp.pi, memory
+    return xy, phase + direction * 0.5 * jnp.pi, CircleState(direction=direction)
+
+
+def circle_validate(cfg: WorldCfg) -> list[Check]:
+    t = cfg.target
+    return [
+        (
+            2 * t.circle_radius_m < cfg.arena.size_m - 2 * t.radius_m,
+            "target.circle_radius_m",
+            "the circle must fit inside the arena",
+        ),
+    ]
 
 
 CIRCLE = Behavior(
     desired_heading=circle_heading,
-    reset=circle_reset,
+    cfg_cls=CircleCfg,
+    init_state=circle_init,
+    validate=circle_validate,
     doc="a fixed 5 m-radius circle around the arena centre, either direction",
 )

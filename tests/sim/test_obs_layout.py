@@ -1,0 +1,51 @@
+"""``Obs.flat`` keeps its layout, and OBS_DIM follows the fields' shapes."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+
+from dyncatch.sim.state import OBS_DIM, Obs, obs_field
+
+# Per-environment width of each field, in ``flat`` order (the trained networks rely on it).
+LAYOUT = {
+    "robot_xy_m": 2,
+    "robot_yaw_cos_sin": 2,
+    "robot_vel_body_mps": 2,
+    "robot_yaw_rate_rps": 1,
+    "target_obs_xy_m": 2,
+    "target_obs_body_m": 2,
+    "time_since_seen_s": 1,
+    "visible": 1,
+    "wall_distance_m": 4,
+}
+
+
+def _numbered(cls, batch):
+    """An Obs whose every entry is its own index in the flat vector, with batch dims."""
+    fields, start = {}, 0
+    for f in cls.__dataclass_fields__.values():
+        size = int(np.prod(f.metadata["shape"]))
+        vals = jnp.arange(start, start + size, dtype=jnp.float32).reshape(f.metadata["shape"])
+        fields[f.name] = jnp.broadcast_to(vals, batch + vals.shape)
+        start += size
+    return cls(**fields), start
+
+
+def test_obs_dim_is_17_in_the_documented_order():
+    assert OBS_DIM == sum(LAYOUT.values()) == 17
+    assert list(Obs.__dataclass_fields__) == list(LAYOUT)
+    obs, n = _numbered(Obs, (3, 5))
+    flat = obs.flat
+    assert flat.shape == (3, 5, OBS_DIM)
+    np.testing.assert_array_equal(flat[2, 4], np.arange(n))
+
+
+def test_a_new_field_widens_flat_without_touching_it():
+    @struct.dataclass
+    class Wider(Obs):
+        target_vel_m: jax.Array = obs_field((2,))
+
+    obs, n = _numbered(Wider, (4,))
+    assert n == OBS_DIM + 2
+    np.testing.assert_array_equal(obs.flat[0], np.arange(n))
