@@ -24,8 +24,10 @@ demo: $(STAMP)
 	$(BIN)/dyncatch reproduce --quick --out results/quick
 
 # pytest exits 5 when it collected no test: that is a failure here, as any other non-zero.
+# --dist loadfile keeps a test file on one worker, so a module's fixture (a tiny
+# reproduction, trained runs) is built once, not once per worker.
 test: $(STAMP)
-	$(BIN)/python -m pytest -n 2 --durations=15
+	$(BIN)/python -m pytest -n 2 --dist loadfile --durations=15
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks

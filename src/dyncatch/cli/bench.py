@@ -7,6 +7,7 @@ import json
 
 from dyncatch.rl.config import PPOCfg
 from dyncatch.sim.config import WorldCfg
+from dyncatch.utils.cli_types import BehaviorName
 
 
 @dataclasses.dataclass(frozen=True)
@@ -58,7 +59,7 @@ class PPOBenchCmd:
     method: str = "rl"
     """Method whose inputs the policy sees (predictor methods use a freshly initialised
     predictor: the same cost as a trained one)."""
-    behavior: str = "reactive"
+    behavior: BehaviorName = "reactive"
     """Target behaviour."""
     iterations: int = 5
     """Timed iterations per repeat (best of 3 repeats; compilation excluded)."""

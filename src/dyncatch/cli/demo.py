@@ -40,7 +40,8 @@ def run_demo(cmd: DemoCmd) -> list[dict]:
     from dyncatch.viz.render import render_frames, write_video
     from dyncatch.viz.trajectory import record_episode
 
-    validate_world(cmd.world)
+    for behavior in BEHAVIORS:
+        validate_world(cmd.world.with_behavior(behavior))
     if cmd.episodes < 1 or any(v < 0 for v in cmd.speeds_mps):
         raise ValueError("--episodes must be >= 1 and --speeds-mps non-negative")
     cmd.out.mkdir(parents=True, exist_ok=True)

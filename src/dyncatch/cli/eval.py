@@ -13,6 +13,7 @@ from pathlib import Path
 import tyro
 
 from dyncatch.sim.config import WorldCfg
+from dyncatch.utils.cli_types import BehaviorName
 
 
 @dataclasses.dataclass(frozen=True)
@@ -21,7 +22,7 @@ class EvalCmd:
 
     method: tyro.conf.Positional[str]
     """A run folder written by dyncatch train, or a non-learned baseline: pursuit, intercept."""
-    behavior: str = "reactive"
+    behavior: BehaviorName = "reactive"
     """Target behaviour."""
     speeds: tuple[float, ...] = (0.8, 1.0, 1.2, 1.4, 1.6, 1.8)
     """Target speeds (m/s), one row each."""

@@ -15,6 +15,7 @@ from dyncatch.predictor.config import CollectCfg, Frame, PredictorCfg, TrainCfg
 from dyncatch.predictor.pipeline import PredictorTrainCfg
 from dyncatch.predictor.table import PAPER_BUDGETS, all_behaviors
 from dyncatch.sim.config import WorldCfg
+from dyncatch.utils.cli_types import BehaviorName
 
 
 def run_predictor_train(cfg: PredictorTrainCfg) -> dict:
@@ -37,7 +38,7 @@ class PredictorTableCmd:
     """Folder for table_ii.md, table_ii.csv and table_ii.png."""
     budgets: tuple[int, ...] = PAPER_BUDGETS
     """Interaction budgets in simulator steps."""
-    behaviors: tuple[str, ...] = dataclasses.field(default_factory=all_behaviors)
+    behaviors: tuple[BehaviorName, ...] = dataclasses.field(default_factory=all_behaviors)
     """Target behaviours (rows); default every registered behaviour."""
     frame: Frame = "egocentric"
     """Input frame of both kinds."""

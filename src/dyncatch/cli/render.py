@@ -9,6 +9,7 @@ from pathlib import Path
 from dyncatch.policies.registry import BASELINES
 from dyncatch.sim.behaviors import BEHAVIORS
 from dyncatch.sim.config import WorldCfg
+from dyncatch.utils.cli_types import BehaviorName
 
 PolicyFactory = Callable[[WorldCfg], Callable]
 
@@ -21,7 +22,7 @@ theirs."""
 class RenderCmd:
     """Play one episode of a policy against a target and write a top-down video of it."""
 
-    behavior: str = "reactive"
+    behavior: BehaviorName = "reactive"
     """Target behaviour (circle, bounce, reactive, random_reactive); overrides world.target."""
     policy: str = "pursuit"
     """Policy to run, a key of dyncatch.cli.render.POLICIES."""

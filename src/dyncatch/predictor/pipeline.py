@@ -14,6 +14,7 @@ from pathlib import Path
 
 from dyncatch.predictor.config import CollectCfg, Frame, Kind, PredictorCfg, TrainCfg
 from dyncatch.sim.config import WorldCfg
+from dyncatch.utils.cli_types import BehaviorName
 from dyncatch.utils.progress import NoProgress, Progress
 
 
@@ -21,7 +22,7 @@ from dyncatch.utils.progress import NoProgress, Progress
 class PredictorTrainCfg:
     """Collect interaction data, train one predictor, save it and report its held-out error."""
 
-    behavior: str = "reactive"
+    behavior: BehaviorName = "reactive"
     """Target behaviour, a key of dyncatch.sim.behaviors.BEHAVIORS."""
     kind: Kind = "self_aware"
     """vanilla (target observations only) or self_aware (plus the robot's states)."""

@@ -13,7 +13,6 @@ from collections.abc import Callable
 
 import numpy as np
 
-from dyncatch.predictor.table import all_behaviors
 from dyncatch.reproduce import aggregate, report, stages
 from dyncatch.reproduce.plan import Plan, estimate_s
 from dyncatch.rl.methods import METHODS, paper_claims, trained_methods
@@ -71,7 +70,7 @@ def run(plan: Plan, command: str, log: Callable[[str], None], progress=None) -> 
     log("stage 4/6: Table I evaluation")
     t1_rows = stages.evaluate_grid(plan, out, "table_i", plan.behaviors, plan.speeds_mps, log)
     log("stage 5/6: Fig. 6 evaluation")
-    behaviors = all_behaviors()
+    behaviors = plan.fig6_columns
     fig6_rows = stages.evaluate_grid(plan, out, "fig6", behaviors, (plan.fig6_speed_mps,), log)
     clips = []
     if plan.videos:
@@ -211,7 +210,7 @@ def render_report(r: dict, plan: Plan) -> str:
         lines.append(
             f"| {t['behavior']} | {t['method']} | {t['seed']} | {final} | {s} | {w} | {total} |"
         )
-    src = ", ".join(f"{b} -> {stages.source_behavior(plan, b)}" for b in all_behaviors())
+    src = ", ".join(f"{b} -> {stages.source_behavior(plan, b)}" for b in plan.fig6_columns)
     lines += [
         "",
         f"## Fig. 6: {plan.fig6_speed_mps} m/s on every behaviour",

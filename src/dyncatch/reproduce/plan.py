@@ -14,6 +14,7 @@ from pathlib import Path
 from dyncatch.reproduce.paper import PAPER_SPEEDS_MPS
 from dyncatch.rl.config import PPOCfg
 from dyncatch.sim.config import WorldCfg
+from dyncatch.utils.cli_types import BehaviorName
 
 
 @dataclass(frozen=True)
@@ -31,7 +32,7 @@ class Plan:
     """Results folder (default results/full or results/quick)."""
     seeds: int = 3
     """Training seeds per (method, behaviour)."""
-    behaviors: tuple[str, ...] = ("reactive", "random_reactive")
+    behaviors: tuple[BehaviorName, ...] = ("reactive", "random_reactive")
     """Behaviours trained on (Table I rows, Fig. 5 panels)."""
     train_steps: int = 4_000_000
     """Environment steps per training run."""
@@ -41,6 +42,8 @@ class Plan:
     """Evaluation episodes per (policy, behaviour, speed) cell."""
     fig6_speed_mps: float = 1.8
     """The high speed of Fig. 6."""
+    fig6_behaviors: tuple[BehaviorName, ...] | None = None
+    """Columns of Fig. 6 and the videos (default: every registered behaviour)."""
     predictor_steps: int = 2_000_000
     """Interaction steps the frozen predictors are trained on."""
     predictor_updates: int = 6000
@@ -63,6 +66,13 @@ class Plan:
     @property
     def out_dir(self) -> Path:
         return self.out if self.out is not None else Path("results") / self.profile
+
+    @property
+    def fig6_columns(self) -> tuple[str, ...]:
+        """The behaviours of Fig. 6 and the videos."""
+        from dyncatch.predictor.table import all_behaviors
+
+        return self.fig6_behaviors if self.fig6_behaviors is not None else all_behaviors()
 
     @property
     def training_runs(self) -> int:
@@ -120,14 +130,15 @@ def estimate_s(plan: Plan) -> float:
     from dyncatch.rl.methods import METHODS, predictor_kinds
 
     behaviors = all_behaviors()
+    columns = plan.fig6_columns
     train = plan.training_runs * (plan.train_steps / EST_SAMPLES_PER_S + EST_COMPILE_S_PER_RUN)
     policies = (len(METHODS) * plan.seeds + len(BASELINES)) * len(plan.behaviors)
-    cells = policies * len(plan.speeds_mps) + policies * len(behaviors) // 2
+    cells = policies * len(plan.speeds_mps) + policies * len(columns) // len(plan.behaviors)
     evaluate = cells * (plan.episodes / 1000 * EST_EVAL_S_PER_1000_EPISODES + 1.0)
     pred_steps = len(predictor_kinds()) * len(plan.behaviors) * plan.predictor_steps
     pred_steps += len(all_kinds()) * len(behaviors) * max(plan.table_ii_budgets)
     predictors = pred_steps / 1e6 * EST_PREDICTOR_S_PER_M_STEPS + 30 * len(plan.behaviors)
-    videos = 30.0 * len(behaviors) if plan.videos else 0.0
+    videos = 30.0 * len(columns) if plan.videos else 0.0
     return train + evaluate + predictors + videos
 
 
@@ -156,6 +167,11 @@ def validate_plan(plan: Plan) -> Plan:
             "--predictor-steps, --predictor-updates and --table-ii-budgets must be set"
         )
     validate_ppo(plan.ppo)
-    for b in plan.behaviors:
+    from dyncatch.predictor.table import all_behaviors
+
+    if plan.fig6_behaviors is not None and not plan.fig6_behaviors:
+        raise ValueError("--fig6-behaviors needs at least one behaviour (or leave it unset)")
+    # Table II plays every registered behaviour.
+    for b in dict.fromkeys((*plan.behaviors, *plan.fig6_columns, *all_behaviors())):
         validate_world(plan.world.with_behavior(b))
     return plan

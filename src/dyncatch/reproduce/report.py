@@ -86,7 +86,7 @@ def plot_fig5(plan: Plan, data: dict, path: Path) -> None:
             ),
             ("env_steps", "reward_per_step", "reward per step (training)", True),
         )
-        for i, (xkey, key, label, smoothed) in enumerate(panels):
+        for i, (xkey, key, ylabel, smoothed) in enumerate(panels):
             ax = axes[i, j]
             for b, method in data:
                 if b != behavior:
@@ -100,7 +100,7 @@ def plot_fig5(plan: Plan, data: dict, path: Path) -> None:
                 if ys.shape[0] > 1:
                     ax.fill_between(x, ys.min(0), ys.max(0), color=color(method), alpha=0.2)
             ax.set_xlabel("environment steps (M)")
-            ax.set_ylabel(label)
+            ax.set_ylabel(ylabel)
             ax.set_title(f"{behavior}")
             ax.grid(alpha=0.3)
     axes[0, 0].legend(loc="lower right")

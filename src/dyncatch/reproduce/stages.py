@@ -23,7 +23,6 @@ import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
-from dyncatch.predictor.table import all_behaviors
 from dyncatch.reproduce.plan import Plan
 from dyncatch.rl.methods import METHODS, get_method, predictor_kinds, trained_methods
 from dyncatch.utils.config_io import config_diff
@@ -211,7 +210,7 @@ def record_videos(plan: Plan, out: Path) -> list[dict]:
 
     clips = []
     for method in filmed_methods():
-        for behavior in all_behaviors():
+        for behavior in plan.fig6_columns:
             path = out / "videos" / f"{method}_{behavior}.gif"
 
             def compute(method=method, behavior=behavior, path=path):

@@ -21,6 +21,7 @@ from dyncatch.rl.methods import get_method
 from dyncatch.rl.train import TrainState, make_train
 from dyncatch.sim.api import Environment, JaxCatchEnv
 from dyncatch.sim.config import WorldCfg
+from dyncatch.utils.cli_types import BehaviorName
 from dyncatch.utils.progress import NoProgress, Progress
 
 CHECKPOINT = "checkpoint.safetensors"
@@ -36,7 +37,7 @@ class TrainRunCfg:
     method: str = "sp_rl"
     """A trained method of dyncatch.rl.methods.METHODS (sp_fp is gt_rl evaluated with the
     predictor)."""
-    behavior: str = "reactive"
+    behavior: BehaviorName = "reactive"
     """Target behaviour, a key of dyncatch.sim.behaviors.BEHAVIORS."""
     total_steps: int = 2_000_000
     """Environment steps to train for (rounded up to whole iterations)."""

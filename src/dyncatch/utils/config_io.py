@@ -40,10 +40,12 @@ def from_dict(cls: type, d: dict, where: str = "") -> Any:
 
 
 def to_json(cfg: Any) -> Any:
-    """A config (nested dataclasses, tuples) as JSON values (tuples become lists)."""
+    """A config (nested dataclasses, tuples, paths) as JSON values (tuples become lists,
+    paths strings)."""
     import json
 
-    return json.loads(json.dumps(dataclasses.asdict(cfg) if dataclasses.is_dataclass(cfg) else cfg))
+    d = dataclasses.asdict(cfg) if dataclasses.is_dataclass(cfg) else cfg
+    return json.loads(json.dumps(d, default=str))
 
 
 def flatten(d: Any, prefix: str = "") -> dict[str, Any]:

@@ -1,0 +1,51 @@
+"""Command-line types whose choices are read from a registry when the command line is parsed,
+so a behaviour registered at run time is a valid choice with no edit here."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Annotated
+
+from tyro.constructors import PrimitiveConstructorSpec
+
+
+class LiveChoices(Sequence):
+    """The keys of a registry, read at every use (tyro checks and lists them)."""
+
+    def __init__(self, keys: Callable[[], Sequence[str]]):
+        self._keys = keys
+
+    def __getitem__(self, i):
+        return tuple(self._keys())[i]
+
+    def __len__(self) -> int:
+        return len(tuple(self._keys()))
+
+    def __hash__(self) -> int:
+        return id(self)
+
+    def __eq__(self, other) -> bool:
+        return self is other
+
+    def __repr__(self) -> str:
+        return ", ".join(self._keys())
+
+
+def _behaviors() -> Sequence[str]:
+    from dyncatch.sim.behaviors import BEHAVIORS
+
+    return tuple(BEHAVIORS)
+
+
+BehaviorName = Annotated[
+    str,
+    PrimitiveConstructorSpec(
+        nargs=1,
+        metavar="BEHAVIOR",
+        instance_from_str=lambda args: args[0],
+        is_instance=lambda x: isinstance(x, str),
+        str_from_instance=lambda x: [x],
+        choices=LiveChoices(_behaviors),
+    ),
+]
+"""A key of ``dyncatch.sim.behaviors.BEHAVIORS``."""
