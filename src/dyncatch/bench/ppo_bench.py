@@ -93,8 +93,17 @@ def ppo_samples_per_s(init, iterate, ppo: PPOCfg, iterations: int, repeats: int 
     return iterations * ppo.batch_size / best
 
 
-def run_ppo_benchmark(env, ppo: PPOCfg, obs_fn, obs_dim: int, iterations: int, predictor_flops=0):
-    """``env``: an environment (``dyncatch.sim.api``) or a world."""
+def run_ppo_benchmark(
+    env,
+    ppo: PPOCfg,
+    obs_fn,
+    obs_dim: int,
+    iterations: int,
+    predictor_flops: int = 0,
+    peak_rows: tuple[int, ...] = PEAK_ROWS,
+):
+    """``env``: an environment (``dyncatch.sim.api``) or a world; the GEMM peak is the best
+    over ``peak_rows``."""
     from dyncatch.rl.train import make_train
 
     init, iterate, _ = make_train(env, ppo, obs_fn)
@@ -103,7 +112,7 @@ def run_ppo_benchmark(env, ppo: PPOCfg, obs_fn, obs_dim: int, iterations: int, p
     k_in, k_out = largest_layer(obs_dim, ppo)
     # The largest layer, square in its widest dimension (the chain needs k_in == k_out).
     k = max(k_in, k_out)
-    rates = {m: gemm_peak_gflops(m, k) for m in PEAK_ROWS}
+    rates = {m: gemm_peak_gflops(m, k) for m in peak_rows}
     m_best = max(rates, key=rates.get)
     peak = rates[m_best]
     achieved = samples * flops["total"] / 1e9

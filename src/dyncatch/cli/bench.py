@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import json
 
+from dyncatch.bench.ppo_bench import PEAK_ROWS
 from dyncatch.rl.config import PPOCfg
 from dyncatch.sim.config import WorldCfg
 from dyncatch.utils.cli_types import BehaviorName
@@ -63,6 +64,8 @@ class PPOBenchCmd:
     """Target behaviour."""
     iterations: int = 5
     """Timed iterations per repeat (best of 3 repeats; compilation excluded)."""
+    gemm_rows: tuple[int, ...] = PEAK_ROWS
+    """Row counts at which the GEMM peak is measured (the peak is the best of them)."""
     json: bool = False
     """Print one JSON object instead of a table."""
     ppo: PPOCfg = PPOCfg()
@@ -87,6 +90,8 @@ def run_ppo_bench(cmd: PPOBenchCmd) -> dict:
     ppo = validate_ppo(cmd.ppo)
     if cmd.iterations < 1:
         raise ValueError(f"--iterations must be >= 1, got {cmd.iterations}")
+    if not cmd.gemm_rows or min(cmd.gemm_rows) < 1:
+        raise ValueError(f"--gemm-rows must be positive row counts, got {cmd.gemm_rows}")
     method = get_method(cmd.method)
     kind = method.predictor_kind
     predictor = params = None
@@ -99,7 +104,7 @@ def run_ppo_bench(cmd: PPOBenchCmd) -> dict:
     env = JaxCatchEnv(world)
     state = env.reset(jax.random.key(0))
     obs_dim = int(obs_fn(state, env.observe(state)).shape[0])
-    result = run_ppo_benchmark(env, ppo, obs_fn, obs_dim, cmd.iterations, pred_flops)
+    result = run_ppo_benchmark(env, ppo, obs_fn, obs_dim, cmd.iterations, pred_flops, cmd.gemm_rows)
     result.update(
         {
             "method": cmd.method,

@@ -27,6 +27,12 @@ class LiveChoices(Sequence):
     def __eq__(self, other) -> bool:
         return self is other
 
+    def __add__(self, other) -> tuple:
+        return tuple(self) + tuple(other)
+
+    def __radd__(self, other) -> tuple:
+        return tuple(other) + tuple(self)
+
     def __repr__(self) -> str:
         return ", ".join(self._keys())
 
