@@ -22,8 +22,10 @@ STRAIGHT = Behavior(
 TINY = [
     "--quick",
     "--behaviors", "straight",
-    # Fig. 6 defaults to every registered behaviour; two columns keep the test small.
+    # Fig. 6 and Table II default to every registered behaviour (checked below without a
+    # run); fewer columns and rows keep the test small.
     "--fig6-behaviors", "straight", "reactive",
+    "--table-ii-behaviors", "straight", "reactive",
     "--train-steps", "256",
     "--episodes", "8",
     "--speeds-mps", "0.8", "1.8",
@@ -137,8 +139,13 @@ def test_a_behaviour_registered_at_run_time_is_a_cli_choice(capsys):
     with straight():
         _, plan = parse(["reproduce", "--quick", "--behaviors", "straight"])
         assert plan.behaviors == ("straight",)
+        # By default Fig. 6, the videos and Table II cover every registered behaviour.
+        assert "straight" in plan.fig6_columns and "straight" in plan.table_ii_rows
         _, cfg = parse(["train", "--behavior", "straight"])
         assert cfg.behavior == "straight"
+        _, table = parse(["predictor", "table", "--budgets", "2500"])
+        assert "straight" in table.behaviors
+    assert "straight" not in parse(["predictor", "table"])[1].behaviors
 
 
 def test_bad_flags_are_refused_naming_the_flag(tmp_path, capsys):

@@ -52,6 +52,8 @@ class Plan:
     """Table II columns (interaction steps)."""
     table_ii_eval_steps: int = 500_000
     """Held-out interaction steps per Table II behaviour."""
+    table_ii_behaviors: tuple[BehaviorName, ...] | None = None
+    """Rows of Table II (default: every registered behaviour)."""
     videos: bool = True
     """One GIF per behaviour of the filmed method's policy."""
     ppo: PPOCfg = PPOCfg()
@@ -73,6 +75,13 @@ class Plan:
         from dyncatch.predictor.table import all_behaviors
 
         return self.fig6_behaviors if self.fig6_behaviors is not None else all_behaviors()
+
+    @property
+    def table_ii_rows(self) -> tuple[str, ...]:
+        """The behaviours of Table II."""
+        from dyncatch.predictor.table import all_behaviors
+
+        return self.table_ii_behaviors if self.table_ii_behaviors is not None else all_behaviors()
 
     @property
     def training_runs(self) -> int:
@@ -126,17 +135,16 @@ EST_PREDICTOR_S_PER_M_STEPS = 8.0
 def estimate_s(plan: Plan) -> float:
     """A rough wall-time estimate (seconds) for the whole plan on 2 cores."""
     from dyncatch.policies.registry import BASELINES
-    from dyncatch.predictor.table import all_behaviors, all_kinds
+    from dyncatch.predictor.table import all_kinds
     from dyncatch.rl.methods import METHODS, predictor_kinds
 
-    behaviors = all_behaviors()
     columns = plan.fig6_columns
     train = plan.training_runs * (plan.train_steps / EST_SAMPLES_PER_S + EST_COMPILE_S_PER_RUN)
     policies = (len(METHODS) * plan.seeds + len(BASELINES)) * len(plan.behaviors)
     cells = policies * len(plan.speeds_mps) + policies * len(columns) // len(plan.behaviors)
     evaluate = cells * (plan.episodes / 1000 * EST_EVAL_S_PER_1000_EPISODES + 1.0)
     pred_steps = len(predictor_kinds()) * len(plan.behaviors) * plan.predictor_steps
-    pred_steps += len(all_kinds()) * len(behaviors) * max(plan.table_ii_budgets)
+    pred_steps += len(all_kinds()) * len(plan.table_ii_rows) * max(plan.table_ii_budgets)
     predictors = pred_steps / 1e6 * EST_PREDICTOR_S_PER_M_STEPS + 30 * len(plan.behaviors)
     videos = 30.0 * len(columns) if plan.videos else 0.0
     return train + evaluate + predictors + videos
@@ -167,11 +175,9 @@ def validate_plan(plan: Plan) -> Plan:
             "--predictor-steps, --predictor-updates and --table-ii-budgets must be set"
         )
     validate_ppo(plan.ppo)
-    from dyncatch.predictor.table import all_behaviors
-
-    if plan.fig6_behaviors is not None and not plan.fig6_behaviors:
-        raise ValueError("--fig6-behaviors needs at least one behaviour (or leave it unset)")
-    # Table II plays every registered behaviour.
-    for b in dict.fromkeys((*plan.behaviors, *plan.fig6_columns, *all_behaviors())):
+    for name, value in (("fig6", plan.fig6_behaviors), ("table-ii", plan.table_ii_behaviors)):
+        if value is not None and not value:
+            raise ValueError(f"--{name}-behaviors needs at least one behaviour (or leave it unset)")
+    for b in dict.fromkeys((*plan.behaviors, *plan.fig6_columns, *plan.table_ii_rows)):
         validate_world(plan.world.with_behavior(b))
     return plan

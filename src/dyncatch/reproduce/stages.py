@@ -116,7 +116,11 @@ def table_ii(plan: Plan, out: Path) -> list[dict]:
         from dyncatch.predictor.config import CollectCfg, PredictorCfg
         from dyncatch.predictor.table import TableCfg, run_table, write
 
-        table = TableCfg(budgets=plan.table_ii_budgets, eval_steps=plan.table_ii_eval_steps)
+        table = TableCfg(
+            behaviors=plan.table_ii_rows,
+            budgets=plan.table_ii_budgets,
+            eval_steps=plan.table_ii_eval_steps,
+        )
         train = _predictor_train(plan)
         rows = run_table(table, PredictorCfg(), train, CollectCfg(), plan.world)
         write(rows, out / "table_ii")
