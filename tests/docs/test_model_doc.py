@@ -30,6 +30,8 @@ def test_every_constant_has_a_row_with_its_default(group, name, default):
     elif isinstance(default, tuple):
         numbers = [float(x) for x in re.findall(r"-?\d+(?:\.\d+)?", cells)]
         assert all(any(math.isclose(v, x, abs_tol=1e-9) for x in numbers) for v in default)
+    elif math.isinf(default):
+        assert " inf " in cells, f"{group}.{name} = inf not written as inf in: {cells}"
     else:
         numbers = [float(x) for x in re.findall(r"-?\d+(?:\.\d+)?", cells)]
         # Angles are written in degrees in the doc.

@@ -32,8 +32,10 @@ def _run_impl(
         pcarry, action = vpolicy(pcarry, state, obs, keys)
         state, obs, reward, now_done, info = vstep(state, action)
         live = ~done
+        # Steps until the first catch (or the end): the catch time, whether or not the
+        # catch ends the episode (``reward.success_per``).
+        steps = steps + (live & ~success).astype(jnp.int32)
         success = success | (live & info["success"])
-        steps = steps + live.astype(jnp.int32)
         ret = ret + jnp.where(live, reward, 0.0)
         return (state, obs, pcarry, done | now_done, success, steps, ret), None
 

@@ -121,8 +121,10 @@ def run(plan: Plan, command: str, log: Callable[[str], None], progress=None) -> 
     stages.write_json(wall_path, wall)
 
     from dyncatch.bench.machine import machine_info
+    from dyncatch.reproduce.readings import setting_name
 
     results = {
+        "setting": setting_name(plan.setting),
         "command": command,
         "commit": _commit(),
         "machine": machine_info(),
@@ -147,6 +149,7 @@ def render_report(r: dict, plan: Plan) -> str:
     lines = [
         f"# dyncatch reproduction ({plan.profile} profile)",
         "",
+        f"- setting: `{r['setting']}` (readings of the paper, docs/fidelity.md)",
         f"- command: `{r['command']}`",
         f"- commit: `{r['commit']}`",
         f"- machine: {m['cpu']}, {m['cores']} cores, jax {m['jax']} ({m['backend']})",

@@ -14,7 +14,7 @@ from pathlib import Path
 from dyncatch.reproduce.paper import PAPER_SPEEDS_MPS
 from dyncatch.rl.config import PPOCfg
 from dyncatch.sim.config import WorldCfg
-from dyncatch.utils.cli_types import BehaviorName
+from dyncatch.utils.cli_types import BehaviorName, ReadingName
 
 
 @dataclass(frozen=True)
@@ -30,6 +30,9 @@ class Plan:
     instead of the full one (3 seeds, 4 M steps per run, 1000 episodes per cell)."""
     out: Path | None = None
     """Results folder (default results/full or results/quick)."""
+    setting: tuple[ReadingName, ...] = ()
+    """Readings of the paper applied on top of the profile, in order
+    (dyncatch.reproduce.readings; none: the library defaults). Flags still override them."""
     seeds: int = 3
     """Training seeds per (method, behaviour)."""
     behaviors: tuple[BehaviorName, ...] = ("reactive", "random_reactive")
@@ -119,9 +122,11 @@ PROFILES: dict[str, Plan] = {
 
 
 def profile_default(plan: Plan) -> Plan:
-    """The profile a first parse of the command line asked for: the command line is parsed
-    again on top of it, so every flag given overrides the profile."""
-    return PROFILES[plan.profile]
+    """The profile and readings a first parse of the command line asked for: the command
+    line is parsed again on top of them, so every flag given overrides both."""
+    from dyncatch.reproduce.readings import apply_readings
+
+    return apply_readings(PROFILES[plan.profile], plan.setting)
 
 
 # Measured on the 2-core CI machine (docs/performance.md, docs/results.md); only used to

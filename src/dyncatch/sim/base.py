@@ -62,6 +62,9 @@ def base_substep(
     )
     vel_body = robot.vel_body_mps + lin_step
     yaw_rate = robot.yaw_rate_rps + yaw_step
+    # Turning at speed: |v| |yaw rate| <= max_lateral_accel (no limit at the default inf).
+    turn_max = cfg.max_lateral_accel_mps2 / jnp.maximum(jnp.linalg.norm(vel_body), 1e-6)
+    yaw_rate = jnp.clip(yaw_rate, -turn_max, turn_max)
 
     xy = robot.xy_m + rotate(vel_body, robot.yaw_rad) * dt_s
     # A wall stops the body, not the gait: the tracked velocity (what the legs do, and what

@@ -42,6 +42,9 @@ class BaseCfg:
     """Largest linear acceleration of the base, per axis."""
     max_yaw_accel_rps2: float = 10.0
     """Largest yaw acceleration of the base."""
+    max_lateral_accel_mps2: float = math.inf
+    """Turning at speed: the yaw rate is held to this over the base's speed (the velocity
+    vector's centripetal acceleration |v| x |yaw rate|); inf (the default) is no limit."""
     gait_noise_mps: float = 0.05
     """Std of the gait-induced linear velocity noise, per control step."""
     gait_noise_yaw_rps: float = 0.05
@@ -118,6 +121,7 @@ class SensorCfg:
 
 
 VisibilityReading = Literal["per_second", "per_step"]
+SuccessReading = Literal["terminal", "every_step"]
 
 
 @struct.dataclass
@@ -134,6 +138,11 @@ class RewardCfg:
     """Reading of w2: ``per_second`` pays w2 x dt each control step (0.004 at 50 Hz; the
     training default: at 0.2 per step, watching the target pays more than catching it,
     measured in docs/model.md), ``per_step`` pays w2 each control step (eq. 9 as written)."""
+
+    success_per: SuccessReading = static("terminal")
+    """Reading of eq. 8: ``terminal`` pays w3 once, at the catch, which ends the episode (the
+    default); ``every_step`` reads R_success as a state indicator, paid every control step
+    while the target is within d_suc, and the episode runs to its time limit."""
 
     def visibility_weight(self, dt_s: float) -> float:
         """The weight of the visibility term per control step of ``dt_s`` seconds."""

@@ -178,11 +178,14 @@ def step(state: EnvState, action: jax.Array, cfg: WorldCfg):
         success=success,
         distance_m=distance,
     )
-    truncated = (step_count >= cfg.episode.max_steps) & ~success
+    # Eq. 8 read as a terminal event ends the episode at the catch; read as a state
+    # indicator it is paid while the catch holds and the episode runs on.
+    terminated = success if cfg.reward.success_per == "terminal" else jnp.zeros((), bool)
+    truncated = (step_count >= cfg.episode.max_steps) & ~terminated
     info = {f"reward/{name}": value for name, value in terms.items()}
     info.update(
         success=success,
-        terminated=success,
+        terminated=terminated,
         truncated=truncated,
         distance_m=distance,
         catch_error_m=best_err,
@@ -191,6 +194,6 @@ def step(state: EnvState, action: jax.Array, cfg: WorldCfg):
         new_state,
         observe(new_state, cfg),
         total_reward(terms, cfg.reward, dt_s),
-        success | truncated,
+        terminated | truncated,
         info,
     )

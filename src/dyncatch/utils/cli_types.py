@@ -55,3 +55,23 @@ BehaviorName = Annotated[
     ),
 ]
 """A key of ``dyncatch.sim.behaviors.BEHAVIORS``."""
+
+
+def _readings() -> Sequence[str]:
+    from dyncatch.reproduce.readings import READINGS
+
+    return tuple(READINGS)
+
+
+ReadingName = Annotated[
+    str,
+    PrimitiveConstructorSpec(
+        nargs=1,
+        metavar="READING",
+        instance_from_str=lambda args: args[0],
+        is_instance=lambda x: isinstance(x, str),
+        str_from_instance=lambda x: [x],
+        choices=LiveChoices(_readings),
+    ),
+]
+"""A key of ``dyncatch.reproduce.readings.READINGS``."""

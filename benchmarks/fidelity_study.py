@@ -1,0 +1,153 @@
+"""The fidelity study (docs/fidelity.md): one reproduction per reading of the paper.
+
+    .venv/bin/python benchmarks/fidelity_study.py --out results/fidelity \\
+        --world-flags --world.scene.name open_plane
+
+Each setting (``default`` = no reading, or readings from ``dyncatch.reproduce.readings``) is a
+``dyncatch reproduce`` of the study's size into ``OUT/<setting>/``: rl, p_rl, sp_rl, gt_rl
+trained on reactive and random_reactive over seeds, sp_fp, pursuit and intercept evaluated
+at 1.4, 1.6 and 1.8 m/s. Every stage is cached, so re-running the same command resumes
+where it stopped (even in another session); ``summary.md`` and ``summary.json`` are written
+from whatever settings have finished. ``--dry-run`` prints the plan and its estimate.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from dyncatch.cli.main import main, parse
+from dyncatch.reproduce.aggregate import gap, time_gap
+from dyncatch.reproduce.plan import estimate_s
+from dyncatch.reproduce.readings import READINGS, setting_name
+
+SETTINGS = (
+    (),
+    ("eq9_per_step",),
+    ("success_every_step",),
+    ("legged_yaw",),
+    ("legged_turning",),
+    ("legged_yaw", "legged_turning"),
+    ("paper_speeds",),
+)
+"""One reading at a time against the default, plus the two agility readings together."""
+SPEEDS = ("1.4", "1.6", "1.8")
+ORACLE = "gt_rl"
+NON_ORACLE = ("rl", "p_rl", "sp_rl", "sp_fp")
+
+
+def study_argv(out: Path, setting: tuple[str, ...], args) -> list[str]:
+    argv = ["reproduce", "--out", str(out / setting_name(setting))]
+    argv += ["--seeds", str(args.seeds), "--train-steps", str(args.train_steps)]
+    argv += ["--episodes", str(args.episodes), "--speeds-mps", *SPEEDS]
+    argv += ["--behaviors", "reactive", "random_reactive"]
+    argv += ["--fig6-behaviors", "reactive", "--table-ii-behaviors", "reactive"]
+    argv += ["--table-ii-budgets", "2000000", "--no-videos"]
+    if setting:
+        argv += ["--setting", *setting]
+    return argv + list(args.world_flags)
+
+
+def verdicts(results: dict) -> list[dict]:
+    """Per behaviour and speed: the oracle's gap to the best non-oracle method (on success,
+    then on catch time), and sp_rl against rl, with their 95 % CIs."""
+    cells = results["table_i"]["cells"]
+    by = {(c["behavior"], c["method"], c["speed_mps"]): c for c in cells}
+    rows = []
+    for behavior in dict.fromkeys(c["behavior"] for c in cells):
+        for speed in sorted({c["speed_mps"] for c in cells}):
+            oracle = by.get((behavior, ORACLE, speed))
+            rivals = [by[k] for k in ((behavior, m, speed) for m in NON_ORACLE) if k in by]
+            if oracle is None or not rivals:
+                continue
+            best = max(rivals, key=lambda c: (c["success_rate"], -c["catch_time_s"]))
+            row = {"behavior": behavior, "speed_mps": speed, "best_non_oracle": best["method"]}
+            row["oracle_gap_success"] = gap(oracle, best)
+            row["oracle_gap_time"] = time_gap(oracle, best)
+            sp, rl = by.get((behavior, "sp_rl", speed)), by.get((behavior, "rl", speed))
+            if sp and rl:
+                row["sp_rl_vs_rl_success"] = gap(sp, rl)
+                row["sp_rl_vs_rl_time"] = time_gap(sp, rl)
+            row["success"] = {
+                c["method"]: c["success_rate"]
+                for c in cells
+                if c["behavior"] == behavior and c["speed_mps"] == speed
+            }
+            rows.append(row)
+    return rows
+
+
+def _fmt(check: dict | None) -> str:
+    if check is None:
+        return "-"
+    lo, hi = check["ci95"]
+    return f"{check['difference']:+.3f} [{lo:+.3f}, {hi:+.3f}]"
+
+
+def summarize(out: Path) -> dict:
+    summary = {}
+    for setting in SETTINGS:
+        path = out / setting_name(setting) / "results.json"
+        if path.exists():
+            summary[setting_name(setting)] = verdicts(json.loads(path.read_text()))
+    lines = [
+        "| setting | behaviour | speed | best non-oracle | gt_rl gap: success | gt_rl gap: "
+        "s saved | sp_rl - rl: success | sp_rl vs rl: s saved |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for name, rows in summary.items():
+        for r in rows:
+            lines.append(
+                f"| {name} | {r['behavior']} | {r['speed_mps']} | {r['best_non_oracle']} | "
+                f"{_fmt(r['oracle_gap_success'])} | {_fmt(r['oracle_gap_time'])} | "
+                f"{_fmt(r.get('sp_rl_vs_rl_success'))} | {_fmt(r.get('sp_rl_vs_rl_time'))} |"
+            )
+    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    (out / "summary.md").write_text("\n".join(lines) + "\n")
+    return summary
+
+
+def run(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", type=Path, default=Path("results/fidelity"))
+    ap.add_argument("--seeds", type=int, default=2)
+    ap.add_argument("--train-steps", type=int, default=2_000_000)
+    ap.add_argument("--episodes", type=int, default=500)
+    ap.add_argument("--only", nargs="*", default=None, help="settings to run, by name")
+    ap.add_argument("--dry-run", action="store_true")
+    ap.add_argument(
+        "--world-flags",
+        nargs=argparse.REMAINDER,
+        default=[],
+        help="flags passed to every reproduction (e.g. --world.scene.name ...)",
+    )
+    args = ap.parse_args(argv)
+    todo = [s for s in SETTINGS if args.only is None or setting_name(s) in args.only]
+    for setting in todo:
+        unknown = [r for r in setting if r not in READINGS]
+        if unknown:
+            raise SystemExit(f"unknown readings {unknown}")
+    total = 0.0
+    for setting in todo:
+        cmd = study_argv(args.out, setting, args)
+        plan = parse(cmd)[1]
+        total += estimate_s(plan)
+        print(f"{setting_name(setting)}: {' '.join(cmd)}")
+    print(f"estimated {total / 3600:.1f} h on 2 cores for {len(todo)} settings")
+    if args.dry_run:
+        return 0
+    for setting in todo:
+        if main(study_argv(args.out, setting, args)) != 0:
+            return 2
+        summarize(args.out)
+    summarize(args.out)
+    print((args.out / "summary.md").read_text())
+    return 0
+
+
+if __name__ == "__main__":
+    from dyncatch.utils.jax_setup import setup_jax
+
+    setup_jax()
+    raise SystemExit(run())

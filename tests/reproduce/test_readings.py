@@ -1,0 +1,56 @@
+"""Each named reading changes exactly the fields it names, and flags still override it."""
+
+import pytest
+
+from dyncatch.cli.main import parse
+from dyncatch.reproduce.plan import PROFILES
+from dyncatch.reproduce.readings import READINGS, apply_readings, setting_name
+from dyncatch.utils.config_io import config_diff
+
+EXPECTED = {
+    "eq9_per_step": {"world.reward.visibility_per": ("per_second", "per_step")},
+    "success_every_step": {"world.reward.success_per": ("terminal", "every_step")},
+    "legged_yaw": {"world.base.max_yaw_rate_rps": (2.0, 1.0)},
+    "legged_turning": {"world.base.max_lateral_accel_mps2": (float("inf"), 3.0)},
+    "slow_tracking": {"world.base.lag_s": (0.1, 0.3)},
+    "paper_speeds": {"world.target.speed_min_mps": (0.8, 0.0)},
+    "paper_budget": {"train_steps": (4_000_000, 20_000_000)},
+}
+
+
+def test_every_reading_is_documented_here():
+    assert set(READINGS) == set(EXPECTED)
+
+
+@pytest.mark.parametrize("name", sorted(EXPECTED))
+def test_a_reading_changes_exactly_what_it_says(name):
+    base = PROFILES["full"]
+    diff = config_diff(base.to_json(), apply_readings(base, [name]).to_json())
+    diff.pop("setting")
+    assert diff == {k: tuple(v) for k, v in EXPECTED[name].items()}
+
+
+def test_readings_compose_in_order_and_name_the_setting():
+    plan = apply_readings(PROFILES["quick"], ["legged_yaw", "legged_turning"])
+    assert plan.setting == ("legged_yaw", "legged_turning")
+    assert (plan.world.base.max_yaw_rate_rps, plan.world.base.max_lateral_accel_mps2) == (1.0, 3.0)
+    assert plan.ppo.hidden_sizes == (128, 128, 64)  # the profile is kept
+    assert setting_name(plan.setting) == "legged_yaw+legged_turning"
+    assert setting_name(()) == "default"
+    with pytest.raises(ValueError, match="legged_yaw"):
+        apply_readings(PROFILES["quick"], ["telepathy"])
+
+
+def test_the_command_line_applies_a_setting_and_flags_override_it():
+    plan = parse(["reproduce", "--quick", "--setting", "legged_yaw"])[1]
+    assert plan.world.base.max_yaw_rate_rps == 1.0 and plan.setting == ("legged_yaw",)
+    argv = ["reproduce", "--setting", "legged_yaw", "--world.base.max-yaw-rate-rps", "1.5"]
+    assert parse(argv)[1].world.base.max_yaw_rate_rps == 1.5
+
+
+def test_docs_list_every_reading():
+    from pathlib import Path
+
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "fidelity.md").read_text()
+    for name in READINGS:
+        assert f"| `{name}` |" in doc, name
