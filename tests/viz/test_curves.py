@@ -63,14 +63,16 @@ def test_plot_two_trained_runs(tmp_path):
     for seed in (0, 1):
         out = tmp_path / f"seed{seed}"
         argv = ["train", "--method", "rl", "--out", str(out), "--seed", str(seed), *TINY]
-        assert main([*argv, "--total-steps", "128"]) == 0
+        # No evaluation: one compilation, the one tests/cli/test_train_cli.py's runs share.
+        assert main([*argv, "--total-steps", "128", "--eval-every", "0"]) == 0
         runs.append(out)
     png = tmp_path / "plots" / "curves.png"
     assert main(["plot", *map(str, runs), "--out", str(png)]) == 0
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    fig = plot_runs(runs, ["success_rate", "eval/success_rate"])
+    fig = plot_runs(runs, ["reward_per_step", "eval/success_rate"])
     lines = _lines(fig.axes[0])
     assert list(lines) == ["seed0 (RL)", "seed1 (RL)"]
     np.testing.assert_array_equal(lines["seed0 (RL)"][0], [64, 128])
-    # Evaluated at the first and the last iteration (eval_every 10 > 2 iterations).
-    assert len(_lines(fig.axes[1])["seed1 (RL)"][0]) == 2
+    assert not np.array_equal(lines["seed0 (RL)"][1], lines["seed1 (RL)"][1])  # two seeds
+    # A run never evaluated draws an empty line, not zeros.
+    assert len(_lines(fig.axes[1])["seed1 (RL)"][0]) == 0
