@@ -220,11 +220,11 @@ def test_export_writes_no_pickle(runs, tmp_path, monkeypatch):
     with pytest.raises(AssertionError, match="pickle used"):
         pickle.dumps(1)  # the patch is live
     assert main(["export", str(root / "sp_rl"), "--out", str(tmp_path / "x")]) == 0
-    assert sorted(p.name for p in (tmp_path / "x").iterdir()) == [
-        "export.json",
-        "policy.onnx",
-        "predictor.onnx",
-    ]
+    files = ["export.json", "policy.onnx", "predictor.onnx"]
+    assert sorted(p.name for p in (tmp_path / "x").iterdir()) == files
+    # Exporting a method without a predictor into the same folder leaves no stale one.
+    assert main(["export", str(root / "rl"), "--out", str(tmp_path / "x")]) == 0
+    assert sorted(p.name for p in (tmp_path / "x").iterdir()) == files[:2]
 
 
 def _isolated(code: str, cwd: Path) -> str:

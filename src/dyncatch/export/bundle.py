@@ -124,7 +124,9 @@ def export(run: Run, out: str | Path, source: dict | None = None) -> dict:
         },
         "source": source or {},
     }
-    if obs_fn.predictor is not None:
+    if obs_fn.predictor is None:
+        (out / PREDICTOR_FILE).unlink(missing_ok=True)  # an earlier export's, now stale
+    else:
         predictor = obs_fn.predictor
         encoder = get_encoder(predictor.cfg.kind, predictor.cfg.frame)
         doc = f"dyncatch {predictor.cfg.kind} predictor: features, yaw_out -> world velocity"
@@ -140,7 +142,8 @@ def export(run: Run, out: str | Path, source: dict | None = None) -> dict:
                 _vector(
                     "features",
                     predictor_layout(predictor),
-                    "the encoded history at the last camera frame (dyncatch.predictor.features)",
+                    "the encoded history: the last two sightings, the robot poses at their "
+                    "captures, its velocity now (dyncatch.predictor.features)",
                 ),
                 {
                     "name": "yaw_out_rad",
