@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from dyncatch.predictor.config import PredictorCfg
-from dyncatch.predictor.features import FEATURES, History, history_from_state
+from dyncatch.predictor.features import FEATURE_DOCS, FEATURES, History, history_from_state
 from dyncatch.predictor.model import Predictor
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.env import reset, step
@@ -57,3 +57,33 @@ def test_predict_runs_inside_a_jitted_rollout(kind, frame):
     v = rollout(jax.random.key(1))
     assert v.shape == (30, 2)
     assert bool(jnp.all(jnp.isfinite(v)))
+
+
+def test_the_layout_names_the_hand_worked_values():
+    encoder = FEATURES["vanilla"]["world"]
+    x, _ = encoder(H, 16.0, 0.5)
+    sizes = [size for _, size in encoder.layout()]
+    parts = np.split(np.asarray(x), np.cumsum(sizes)[:-1])
+    named = {name: part.tolist() for (name, _), part in zip(encoder.layout(), parts, strict=True)}
+    expected = {
+        "target_xy_frac": [5 / 16, 4 / 16],
+        "prev_target_xy_frac": [4.5 / 16, 4 / 16],
+        "target_vel_mps": [1.0, 0.0],
+        "target_walls_frac": [5 / 16, 4 / 16, 11 / 16, 12 / 16],
+    }
+    assert named.keys() == expected.keys()
+    for name, value in expected.items():
+        np.testing.assert_allclose(named[name], value, atol=1e-6, err_msg=name)
+
+
+@pytest.mark.parametrize(
+    ("kind", "frame"), [(k, f) for k in FEATURES for f in FEATURES[k]], ids=lambda v: v
+)
+def test_every_encoder_names_and_documents_all_its_inputs(kind, frame):
+    encoder = FEATURES[kind][frame]
+    x, _ = encoder(H, 16.0, 0.5)
+    layout = encoder.layout()
+    assert sum(size for _, size in layout) == x.shape[0]
+    names = [name for name, _ in layout]
+    assert len(set(names)) == len(names)
+    assert set(names) <= set(FEATURE_DOCS), set(names) - set(FEATURE_DOCS)

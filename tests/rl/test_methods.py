@@ -40,6 +40,11 @@ def test_rl_sees_the_plain_observation_and_gt_rl_the_true_velocity_in_the_base_f
     assert float(x[-1]) == 1.0
     # The speed of the input is the target's speed (1.2 m/s).
     np.testing.assert_allclose(jnp.linalg.norm(x[OBS_DIM : OBS_DIM + 2]), 1.2, atol=1e-5)
+    # The layout names every slot: the observation fields, then the velocity inputs.
+    layout = method_obs("gt_rl").layout()
+    assert sum(size for _, size in layout) == x.shape[0]
+    assert [name for name, _ in layout[-2:]] == ["target_vel_body_mps", "target_vel_defined"]
+    assert sum(size for _, size in method_obs("rl").layout()) == OBS_DIM
 
 
 def test_predictor_input_is_zero_until_two_consecutive_sightings():

@@ -17,6 +17,8 @@ from typing import Any
 from dyncatch.cli.bench import EnvBenchCmd, PPOBenchCmd, run_env_bench, run_ppo_bench
 from dyncatch.cli.demo import DemoCmd, run_demo
 from dyncatch.cli.eval import EvalCmd, run_eval, run_world_default
+from dyncatch.cli.export import ExportCmd, run_export
+from dyncatch.cli.plot import PlotCmd, run_plot
 from dyncatch.cli.predictor import PredictorTableCmd, run_predictor_table, run_predictor_train
 from dyncatch.cli.render import RenderCmd, run_render
 from dyncatch.cli.reproduce import run_reproduce
@@ -45,6 +47,8 @@ COMMANDS: dict[str, Command | Group] = {
     "render": Command(RenderCmd, run_render),
     "train": Command(TrainRunCfg, run_train),
     "eval": Command(EvalCmd, run_eval, run_world_default),
+    "export": Command(ExportCmd, run_export),
+    "plot": Command(PlotCmd, run_plot),
     "reproduce": Command(Plan, run_reproduce, profile_default),
     "bench": Group(
         "Throughput benchmarks.",

@@ -3,12 +3,15 @@
 A ``History`` is the current frame's s_phi before encoding: target sightings at t and t-1,
 the robot poses at those captures and the robot's velocity now. Every encoder returns the
 input vector and the yaw (rad) by which the network's output is rotated into the world
-(0 for world-frame outputs), so ``predict`` always returns a world-frame velocity.
+(0 for world-frame outputs), so ``predict`` always returns a world-frame velocity. Encoders
+name the parts of their input vector (``Encoder.layout``), so an exported predictor's input
+layout is read off the code that computes it.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import jax
 import jax.numpy as jnp
@@ -49,8 +52,31 @@ def history_from_state(state: EnvState) -> History:
     )
 
 
-Encoder = Callable[[History, float, float], tuple[jax.Array, jax.Array]]
-"""(history, arena_size_m, frame_dt_s) -> (inputs (D,), output yaw_rad ())."""
+Parts = dict[str, jax.Array]
+"""Named pieces of an encoder's input vector, concatenated in insertion order."""
+
+
+@dataclass(frozen=True)
+class Encoder:
+    """``(history, arena_size_m, frame_dt_s) -> (inputs (D,), output yaw_rad ())``.
+
+    Built from a function that returns the inputs as named parts, so the input layout (what
+    a robot must compute to run an exported predictor) is read off the code that computes it.
+    Every part's name is documented in ``FEATURE_DOCS``.
+    """
+
+    parts: Callable[[History, float, float], tuple[Parts, jax.Array]]
+    yaw_out: str = "0 (the network's output is in world axes)"
+    """What the returned output yaw is."""
+
+    def __call__(self, h: History, size_m: float, dt_s: float) -> tuple[jax.Array, jax.Array]:
+        parts, yaw_out = self.parts(h, size_m, dt_s)
+        return jnp.concatenate(list(parts.values())), yaw_out
+
+    def layout(self) -> tuple[tuple[str, int], ...]:
+        """(name, size) of each part of the input vector, in order."""
+        parts, _ = self.parts(dummy_history(), 16.0, 0.5)
+        return tuple((name, int(v.shape[0])) for name, v in parts.items())
 
 
 def _walls(xy_m: jax.Array, size_m: float) -> jax.Array:
@@ -62,44 +88,43 @@ def _target_velocity(h: History, dt_s: float) -> jax.Array:
     return (h.target_xy_m - h.prev_target_xy_m) / dt_s
 
 
-def vanilla_world(h: History, size_m: float, dt_s: float) -> tuple[jax.Array, jax.Array]:
-    x = jnp.concatenate(
-        [
-            h.target_xy_m / size_m,
-            h.prev_target_xy_m / size_m,
-            _target_velocity(h, dt_s),
-            _walls(h.target_xy_m, size_m),
-        ]
-    )
-    return x, jnp.zeros(())
+def _vanilla_world(h: History, size_m: float, dt_s: float) -> tuple[Parts, jax.Array]:
+    parts = {
+        "target_xy_frac": h.target_xy_m / size_m,
+        "prev_target_xy_frac": h.prev_target_xy_m / size_m,
+        "target_vel_mps": _target_velocity(h, dt_s),
+        "target_walls_frac": _walls(h.target_xy_m, size_m),
+    }
+    return parts, jnp.zeros(())
 
 
-def vanilla_egocentric(h: History, size_m: float, dt_s: float) -> tuple[jax.Array, jax.Array]:
+def _vanilla_egocentric(h: History, size_m: float, dt_s: float) -> tuple[Parts, jax.Array]:
     """Translation to p_t only (no robot yaw to rotate by): the last displacement and walls."""
-    x = jnp.concatenate([_target_velocity(h, dt_s), _walls(h.target_xy_m, size_m)])
-    return x, jnp.zeros(())
+    parts = {
+        "target_vel_mps": _target_velocity(h, dt_s),
+        "target_walls_frac": _walls(h.target_xy_m, size_m),
+    }
+    return parts, jnp.zeros(())
 
 
-def _robot_world(h: History, size_m: float) -> jax.Array:
+def _robot_world(h: History, size_m: float) -> Parts:
     yaw, prev_yaw = h.robot_pose[2], h.prev_robot_pose[2]
-    return jnp.concatenate(
-        [
-            h.robot_pose[:2] / size_m,
-            jnp.stack([jnp.cos(yaw), jnp.sin(yaw)]),
-            h.prev_robot_pose[:2] / size_m,
-            jnp.stack([jnp.cos(prev_yaw), jnp.sin(prev_yaw)]),
-            rotate(h.robot_vel_body_mps, yaw),
-            h.robot_yaw_rate_rps[None],
-        ]
-    )
+    return {
+        "robot_xy_frac": h.robot_pose[:2] / size_m,
+        "robot_yaw_cos_sin": jnp.stack([jnp.cos(yaw), jnp.sin(yaw)]),
+        "prev_robot_xy_frac": h.prev_robot_pose[:2] / size_m,
+        "prev_robot_yaw_cos_sin": jnp.stack([jnp.cos(prev_yaw), jnp.sin(prev_yaw)]),
+        "robot_vel_world_mps": rotate(h.robot_vel_body_mps, yaw),
+        "robot_yaw_rate_rps": h.robot_yaw_rate_rps[None],
+    }
 
 
-def self_aware_world(h: History, size_m: float, dt_s: float) -> tuple[jax.Array, jax.Array]:
-    x, yaw_out = vanilla_world(h, size_m, dt_s)
-    return jnp.concatenate([x, _robot_world(h, size_m)]), yaw_out
+def _self_aware_world(h: History, size_m: float, dt_s: float) -> tuple[Parts, jax.Array]:
+    parts, yaw_out = _vanilla_world(h, size_m, dt_s)
+    return {**parts, **_robot_world(h, size_m)}, yaw_out
 
 
-def self_aware_egocentric(h: History, size_m: float, dt_s: float) -> tuple[jax.Array, jax.Array]:
+def _self_aware_egocentric(h: History, size_m: float, dt_s: float) -> tuple[Parts, jax.Array]:
     """Everything in the robot's frame at t; the reactive rule (eq. 12) reads off it directly."""
     xy, yaw = h.robot_pose[:2], h.robot_pose[2]
     rel = world_to_body(h.target_xy_m - xy, yaw)
@@ -107,46 +132,49 @@ def self_aware_egocentric(h: History, size_m: float, dt_s: float) -> tuple[jax.A
     prev_robot = world_to_body(h.prev_robot_pose[:2] - xy, yaw)
     dyaw = h.prev_robot_pose[2] - yaw
     dist = jnp.sqrt(jnp.sum(rel * rel) + 1e-12)
-    x = jnp.concatenate(
-        [
-            rel / size_m,
-            prev_rel / size_m,
-            (rel - prev_rel) / dt_s,
-            rel / dist,
-            dist[None] / size_m,
-            prev_robot / size_m,
-            jnp.stack([jnp.cos(dyaw), jnp.sin(dyaw)]),
-            h.robot_vel_body_mps,
-            h.robot_yaw_rate_rps[None],
-            jnp.stack([jnp.cos(yaw), jnp.sin(yaw)]),
-            _walls(h.target_xy_m, size_m),
-            _walls(xy, size_m),
-        ]
-    )
-    return x, yaw
+    parts = {
+        "target_body_frac": rel / size_m,
+        "prev_target_body_frac": prev_rel / size_m,
+        "target_vel_body_mps": (rel - prev_rel) / dt_s,
+        "target_dir_body_unit": rel / dist,
+        "target_dist_frac": dist[None] / size_m,
+        "prev_robot_body_frac": prev_robot / size_m,
+        "prev_robot_dyaw_cos_sin": jnp.stack([jnp.cos(dyaw), jnp.sin(dyaw)]),
+        "robot_vel_body_mps": h.robot_vel_body_mps,
+        "robot_yaw_rate_rps": h.robot_yaw_rate_rps[None],
+        "robot_yaw_cos_sin": jnp.stack([jnp.cos(yaw), jnp.sin(yaw)]),
+        "target_walls_frac": _walls(h.target_xy_m, size_m),
+        "robot_walls_frac": _walls(xy, size_m),
+    }
+    return parts, yaw
 
 
-def self_aware_relative(h: History, size_m: float, dt_s: float) -> tuple[jax.Array, jax.Array]:
+def _self_aware_relative(h: History, size_m: float, dt_s: float) -> tuple[Parts, jax.Array]:
     """World axes, robot quantities relative to the target: eq. 12 reads atan2(d) off them."""
-    x, yaw_out = vanilla_world(h, size_m, dt_s)
+    parts, yaw_out = _vanilla_world(h, size_m, dt_s)
     xy, yaw = h.robot_pose[:2], h.robot_pose[2]
     d = h.target_xy_m - xy
     dist = jnp.sqrt(jnp.sum(d * d) + 1e-12)
     prev_yaw = h.prev_robot_pose[2]
-    robot = jnp.concatenate(
-        [
-            d / size_m,
-            d / dist,
-            dist[None] / size_m,
-            (h.prev_target_xy_m - h.prev_robot_pose[:2]) / size_m,
-            jnp.stack([jnp.cos(yaw), jnp.sin(yaw), jnp.cos(prev_yaw), jnp.sin(prev_yaw)]),
-            rotate(h.robot_vel_body_mps, yaw),
-            h.robot_yaw_rate_rps[None],
-            _walls(xy, size_m),
-        ]
-    )
-    return jnp.concatenate([x, robot]), yaw_out
+    robot = {
+        "target_rel_frac": d / size_m,
+        "target_dir_unit": d / dist,
+        "target_dist_frac": dist[None] / size_m,
+        "prev_target_rel_frac": (h.prev_target_xy_m - h.prev_robot_pose[:2]) / size_m,
+        "robot_yaw_cos_sin": jnp.stack([jnp.cos(yaw), jnp.sin(yaw)]),
+        "prev_robot_yaw_cos_sin": jnp.stack([jnp.cos(prev_yaw), jnp.sin(prev_yaw)]),
+        "robot_vel_world_mps": rotate(h.robot_vel_body_mps, yaw),
+        "robot_yaw_rate_rps": h.robot_yaw_rate_rps[None],
+        "robot_walls_frac": _walls(xy, size_m),
+    }
+    return {**parts, **robot}, yaw_out
 
+
+vanilla_world = Encoder(_vanilla_world)
+vanilla_egocentric = Encoder(_vanilla_egocentric)
+self_aware_world = Encoder(_self_aware_world)
+self_aware_egocentric = Encoder(_self_aware_egocentric, "the robot yaw at the capture of p_t")
+self_aware_relative = Encoder(_self_aware_relative)
 
 FEATURES: dict[str, dict[str, Encoder]] = {
     "vanilla": {
@@ -161,6 +189,36 @@ FEATURES: dict[str, dict[str, Encoder]] = {
     },
 }
 """kind -> frame -> encoder."""
+
+FEATURE_DOCS: dict[str, str] = {
+    "target_xy_frac": "last sighting p_t, world, over the arena side",
+    "prev_target_xy_frac": "the sighting before, p_{t-1}, world, over the arena side",
+    "target_vel_mps": "(p_t - p_{t-1}) / frame_dt_s, world axes",
+    "target_walls_frac": "p_t's distances to the walls (-x, +x, -y, +y) over the arena side",
+    "robot_xy_frac": "robot position at the capture of p_t, world, over the arena side",
+    "robot_yaw_cos_sin": "cos and sin of the robot yaw at the capture of p_t",
+    "prev_robot_xy_frac": "robot position at the capture of p_{t-1}, world, over the arena side",
+    "prev_robot_yaw_cos_sin": "cos and sin of the robot yaw at the capture of p_{t-1}",
+    "robot_vel_world_mps": "robot velocity now, rotated into world axes by its yaw at p_t",
+    "robot_yaw_rate_rps": "robot yaw rate now",
+    "robot_vel_body_mps": "robot velocity now (forward, left) in its own frame",
+    "target_body_frac": "p_t minus the robot position at p_t, robot frame at p_t, over the side",
+    "prev_target_body_frac": "p_{t-1} minus the robot position at p_t, robot frame at p_t, "
+    "over the side",
+    "target_vel_body_mps": "(p_t - p_{t-1}) / frame_dt_s, robot frame at p_t",
+    "target_dir_body_unit": "unit vector from the robot at p_t to p_t, robot frame at p_t",
+    "target_dist_frac": "distance from the robot at p_t to p_t over the arena side",
+    "prev_robot_body_frac": "robot position at p_{t-1} minus at p_t, robot frame at p_t, "
+    "over the side",
+    "prev_robot_dyaw_cos_sin": "cos and sin of (robot yaw at p_{t-1} - robot yaw at p_t)",
+    "robot_walls_frac": "robot position at p_t: distances to the walls (-x, +x, -y, +y) over "
+    "the arena side",
+    "target_rel_frac": "p_t minus the robot position at p_t, world axes, over the arena side",
+    "target_dir_unit": "unit vector from the robot at p_t to p_t, world axes",
+    "prev_target_rel_frac": "p_{t-1} minus the robot position at p_{t-1}, world axes, over the "
+    "arena side",
+}
+"""What each named input part means; every ``Encoder``'s parts are documented here."""
 
 
 def get_encoder(kind: str, frame: str) -> Encoder:

@@ -24,6 +24,22 @@ from dyncatch.sim.state import EnvState, Obs
 GROUND_TRUTH = "ground_truth"
 """The velocity input of the oracle: the target's true velocity (the paper's GT-Pred)."""
 
+VELOCITY_INPUTS: tuple[tuple[str, int, str], ...] = (
+    (
+        "target_vel_body_mps",
+        2,
+        "the target's velocity (true, or the predictor's v_hat_{t+1}) in the current base "
+        "frame (forward, left); 0 where not defined",
+    ),
+    (
+        "target_vel_defined",
+        1,
+        "1 if the velocity is defined (ground truth: always; a predictor: the last two camera "
+        "frames both saw the target), else 0",
+    ),
+)
+"""(name, size, meaning) of what a method with a velocity input appends to ``Obs.flat``."""
+
 
 @dataclass(frozen=True)
 class Method:
@@ -168,7 +184,13 @@ class MethodObs:
         ok = state.sensor.consecutive
         return jnp.where(ok, v, 0.0), ok.astype(jnp.float32)
 
+    def layout(self) -> tuple[tuple[str, int], ...]:
+        """(name, size) of each part of the input vector, in order (sizes sum to D)."""
+        extra = () if self.velocity_input is None else VELOCITY_INPUTS
+        return Obs.layout() + tuple((name, size) for name, size, _ in extra)
+
     def __call__(self, state: EnvState, obs: Obs) -> jax.Array:
+        """The policy's input vector, (D,): ``obs.flat`` then the ``VELOCITY_INPUTS``."""
         if self.velocity_input is None:
             return obs.flat
         v_world, ok = self.velocity(state)

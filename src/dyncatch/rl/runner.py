@@ -17,11 +17,12 @@ from pathlib import Path
 import jax
 
 from dyncatch.rl.config import PPOCfg, validate_ppo
+from dyncatch.rl.logging import MetricLog, validate_loggers
 from dyncatch.rl.methods import get_method
 from dyncatch.rl.train import TrainState, make_train
 from dyncatch.sim.api import Environment, JaxCatchEnv
 from dyncatch.sim.config import WorldCfg
-from dyncatch.utils.cli_types import BehaviorName
+from dyncatch.utils.cli_types import BehaviorName, LoggerName
 from dyncatch.utils.progress import NoProgress, Progress
 
 CHECKPOINT = "checkpoint.safetensors"
@@ -44,7 +45,7 @@ class TrainRunCfg:
     seed: int = 0
     """Training seed."""
     out: Path = Path("runs/train")
-    """Run folder: checkpoint.safetensors, metrics.csv, tb/."""
+    """Run folder: checkpoint.safetensors and the loggers' files (metrics.csv, tb/, wandb/)."""
     predictor: Path | None = None
     """Predictor checkpoint (from dyncatch predictor train) for p_rl and sp_rl."""
     checkpoint_every: int = 20
@@ -59,6 +60,10 @@ class TrainRunCfg:
     """Episodes per evaluation: the same evaluation seeds every time, disjoint from training."""
     eval_speed_mps: float = 1.8
     """Target speed of the evaluation episodes."""
+    logger: tuple[LoggerName, ...] = ("csv", "tensorboard")
+    """Where the per-iteration metrics go, one or more of dyncatch.rl.logging.LOGGERS: csv
+    (metrics.csv, which dyncatch plot reads and a resumed run continues its wall clock
+    from), tensorboard (tb/), wandb (wandb/, offline unless WANDB_MODE is set)."""
     ppo: PPOCfg = PPOCfg()
     """PPO hyper-parameters and batch geometry."""
     world: WorldCfg = WorldCfg()
@@ -85,6 +90,7 @@ def _validate(cfg: TrainRunCfg) -> None:
         raise ValueError(
             "--eval-every must be >= 0, --eval-episodes >= 1 and --eval-speed-mps >= 0"
         )
+    validate_loggers(cfg.logger)
     method = get_method(cfg.method)
     if not method.trained:
         raise ValueError(
@@ -169,14 +175,19 @@ class TrainRunner:
 
     def learn(self, progress: Progress | None = None) -> dict[str, float]:
         """Train to ``total_steps``; returns the last iteration's metrics."""
-        from dyncatch.rl.logging import MetricLog
-
-        cfg, ppo = self.cfg, self.ppo
+        cfg = self.cfg
         ts = self.initial_state()
         cfg.out.mkdir(parents=True, exist_ok=True)
         start = int(ts.iteration)
+        log = MetricLog(cfg.out, start, cfg.logger, self.header)
+        try:
+            return self._loop(ts, start, log, progress)
+        finally:
+            log.close()
+
+    def _loop(self, ts: TrainState, start: int, log: MetricLog, progress: Progress | None):
+        cfg, ppo = self.cfg, self.ppo
         total_iters = -(-cfg.total_steps // ppo.batch_size)
-        log = MetricLog(cfg.out, resume_iteration=start)
         update = (progress or NoProgress()).task(
             f"{cfg.method} vs {cfg.behavior}", total_iters, start
         )
@@ -206,5 +217,4 @@ class TrainRunner:
             update(it + 1, f"{rate:,.0f} samples/s  success {metrics['success_rate']:.2f}")
             if (it + 1) % cfg.checkpoint_every == 0 or it + 1 == total_iters:
                 self.save(ts)
-        log.close()
         return metrics

@@ -99,18 +99,28 @@ class Obs:
     """What a policy may see. ``flat`` is the network view, (..., OBS_DIM), fields in order."""
 
     robot_xy_m: jax.Array = obs_field((2,))
+    """Base centre in the world (arena corner at the origin, walls at 0 and the side), (2,)."""
     robot_yaw_cos_sin: jax.Array = obs_field((2,))
+    """cos and sin of the base heading, (2,)."""
     robot_vel_body_mps: jax.Array = obs_field((2,))
+    """Base velocity (forward, left) in the base frame, (2,)."""
     robot_yaw_rate_rps: jax.Array = obs_field(())
+    """Base yaw rate, ()."""
     target_obs_xy_m: jax.Array = obs_field((2,))
     """Last observed target position in the world, (2,)."""
     target_obs_body_m: jax.Array = obs_field((2,))
     """The same point in the current base frame, (2,)."""
     time_since_seen_s: jax.Array = obs_field(())
+    """Time since the capture of the last sighting (episode time if never seen), ()."""
     visible: jax.Array = obs_field(())
     """1.0 if the last camera frame saw the target."""
     wall_distance_m: jax.Array = obs_field((4,))
     """Distance from the base centre to the walls (-x, +x, -y, +y), (4,): s_env."""
+
+    @classmethod
+    def layout(cls) -> tuple[tuple[str, int], ...]:
+        """(field name, number of slots in ``flat``) of every field, in ``flat``'s order."""
+        return tuple((f.name, math.prod(f.metadata["shape"])) for f in dataclasses.fields(cls))
 
     @property
     def flat(self) -> jax.Array:

@@ -37,24 +37,37 @@ class LiveChoices(Sequence):
         return ", ".join(self._keys())
 
 
+def live_name(keys: Callable[[], Sequence[str]], metavar: str):
+    """A ``str`` flag type whose choices are ``keys()`` when the command line is parsed."""
+    return Annotated[
+        str,
+        PrimitiveConstructorSpec(
+            nargs=1,
+            metavar=metavar,
+            instance_from_str=lambda args: args[0],
+            is_instance=lambda x: isinstance(x, str),
+            str_from_instance=lambda x: [x],
+            choices=LiveChoices(keys),
+        ),
+    ]
+
+
 def _behaviors() -> Sequence[str]:
     from dyncatch.sim.behaviors import BEHAVIORS
 
     return tuple(BEHAVIORS)
 
 
-BehaviorName = Annotated[
-    str,
-    PrimitiveConstructorSpec(
-        nargs=1,
-        metavar="BEHAVIOR",
-        instance_from_str=lambda args: args[0],
-        is_instance=lambda x: isinstance(x, str),
-        str_from_instance=lambda x: [x],
-        choices=LiveChoices(_behaviors),
-    ),
-]
+def _loggers() -> Sequence[str]:
+    from dyncatch.rl.logging import LOGGERS
+
+    return tuple(LOGGERS)
+
+
+BehaviorName = live_name(_behaviors, "BEHAVIOR")
 """A key of ``dyncatch.sim.behaviors.BEHAVIORS``."""
+LoggerName = live_name(_loggers, "LOGGER")
+"""A key of ``dyncatch.rl.logging.LOGGERS``."""
 
 
 def _readings() -> Sequence[str]:
@@ -63,15 +76,5 @@ def _readings() -> Sequence[str]:
     return tuple(READINGS)
 
 
-ReadingName = Annotated[
-    str,
-    PrimitiveConstructorSpec(
-        nargs=1,
-        metavar="READING",
-        instance_from_str=lambda args: args[0],
-        is_instance=lambda x: isinstance(x, str),
-        str_from_instance=lambda x: [x],
-        choices=LiveChoices(_readings),
-    ),
-]
+ReadingName = live_name(_readings, "READING")
 """A key of ``dyncatch.reproduce.readings.READINGS``."""
