@@ -53,31 +53,23 @@ Encoder = Callable[[History, float, float], tuple[jax.Array, jax.Array]]
 """(history, arena_size_m, frame_dt_s) -> (inputs (D,), output yaw_rad ())."""
 
 
-def _walls(xy_m: jax.Array, size_m: float) -> jax.Array:
-    """Distances to the walls (-x, +x, -y, +y) over the arena side, (4,): s_env."""
-    return jnp.concatenate([xy_m, size_m - xy_m]) / size_m
-
-
 def _target_velocity(h: History, dt_s: float) -> jax.Array:
     return (h.target_xy_m - h.prev_target_xy_m) / dt_s
 
 
 def vanilla_world(h: History, size_m: float, dt_s: float) -> tuple[jax.Array, jax.Array]:
+    """Sightings in the simulator's stored frame (world axes, origin at the robot now)."""
     x = jnp.concatenate(
-        [
-            h.target_xy_m / size_m,
-            h.prev_target_xy_m / size_m,
-            _target_velocity(h, dt_s),
-            _walls(h.target_xy_m, size_m),
-        ]
+        [h.target_xy_m / size_m, h.prev_target_xy_m / size_m, _target_velocity(h, dt_s)]
     )
     return x, jnp.zeros(())
 
 
 def vanilla_egocentric(h: History, size_m: float, dt_s: float) -> tuple[jax.Array, jax.Array]:
-    """Translation to p_t only (no robot yaw to rotate by): the last displacement and walls."""
-    x = jnp.concatenate([_target_velocity(h, dt_s), _walls(h.target_xy_m, size_m)])
-    return x, jnp.zeros(())
+    """The target's last displacement in the camera's frame at its capture (so the input is
+    the same however the world is rotated); no robot state beyond the camera's heading."""
+    yaw = h.robot_pose[2]
+    return world_to_body(_target_velocity(h, dt_s), yaw), yaw
 
 
 def _robot_world(h: History, size_m: float) -> jax.Array:
@@ -100,7 +92,8 @@ def self_aware_world(h: History, size_m: float, dt_s: float) -> tuple[jax.Array,
 
 
 def self_aware_egocentric(h: History, size_m: float, dt_s: float) -> tuple[jax.Array, jax.Array]:
-    """Everything in the robot's frame at t; the reactive rule (eq. 12) reads off it directly."""
+    """Everything in the robot's frame at t (nothing absolute: the same input however the world
+    is placed); the reactive rule (eq. 12) reads off it directly."""
     xy, yaw = h.robot_pose[:2], h.robot_pose[2]
     rel = world_to_body(h.target_xy_m - xy, yaw)
     prev_rel = world_to_body(h.prev_target_xy_m - xy, yaw)
@@ -118,9 +111,6 @@ def self_aware_egocentric(h: History, size_m: float, dt_s: float) -> tuple[jax.A
             jnp.stack([jnp.cos(dyaw), jnp.sin(dyaw)]),
             h.robot_vel_body_mps,
             h.robot_yaw_rate_rps[None],
-            jnp.stack([jnp.cos(yaw), jnp.sin(yaw)]),
-            _walls(h.target_xy_m, size_m),
-            _walls(xy, size_m),
         ]
     )
     return x, yaw
@@ -142,7 +132,6 @@ def self_aware_relative(h: History, size_m: float, dt_s: float) -> tuple[jax.Arr
             jnp.stack([jnp.cos(yaw), jnp.sin(yaw), jnp.cos(prev_yaw), jnp.sin(prev_yaw)]),
             rotate(h.robot_vel_body_mps, yaw),
             h.robot_yaw_rate_rps[None],
-            _walls(xy, size_m),
         ]
     )
     return jnp.concatenate([x, robot]), yaw_out

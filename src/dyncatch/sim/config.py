@@ -21,7 +21,20 @@ from dyncatch.sim.fields import static
 @struct.dataclass
 class ArenaCfg:
     size_m: float = 16.0
-    """Side of the square arena; its lower-left corner is the origin."""
+    """Side of the square region (walls in the ``arena`` scene, the bounce target's virtual
+    boundary on the ``open_plane``); its lower-left corner is the world origin."""
+
+
+@struct.dataclass
+class SceneCfg:
+    """Which scene (``dyncatch.sim.scenes.SCENES``) and the range scan s_env (eq. 3)."""
+
+    name: str = static("arena")
+    """Scene: ``arena`` (walled) or ``open_plane`` (the paper's Table I)."""
+    scan_rays: int = static(8)
+    """Rays of the range scan s_env, evenly spread around the base heading (first: ahead)."""
+    scan_range_m: float = 10.0
+    """Farthest distance a ray reports; it reads this when it hits nothing."""
 
 
 @struct.dataclass
@@ -175,6 +188,7 @@ def jnp_round(x):
 class WorldCfg:
     """Everything the simulator needs; pass it to ``reset`` and ``step``."""
 
+    scene: SceneCfg = SceneCfg()
     arena: ArenaCfg = ArenaCfg()
     base: BaseCfg = BaseCfg()
     arm: ArmCfg = ArmCfg()
@@ -191,3 +205,6 @@ class WorldCfg:
 
     def with_behavior(self, behavior: str) -> WorldCfg:
         return self.replace(target=self.target.replace(behavior=behavior))
+
+    def with_scene(self, scene: str) -> WorldCfg:
+        return self.replace(scene=self.scene.replace(name=scene))
