@@ -36,31 +36,44 @@ def shift_xy_fields(tree, d: jax.Array):
     return tree.replace(**moved) if moved else tree
 
 
-def recentre(state: EnvState) -> EnvState:
-    """The same state in the frame centred on the robot (which then sits at xy = 0)."""
-    d = state.robot.xy_m
+def shift(state: EnvState, d_m: jax.Array) -> EnvState:
+    """The same state in a frame moved by ``d_m`` (2,): every stored position minus ``d_m``,
+    ``origin_xy_m`` plus it. ``shift(state, -state.origin_xy_m)`` gives world coordinates."""
     robot = state.robot.replace(
-        xy_m=jnp.zeros_like(d),
+        xy_m=state.robot.xy_m - d_m,
         gripper_xyz_m=jnp.concatenate(
-            [state.robot.gripper_xyz_m[:2] - d, state.robot.gripper_xyz_m[2:]]
+            [state.robot.gripper_xyz_m[:2] - d_m, state.robot.gripper_xyz_m[2:]]
         ),
     )
     target = state.target.replace(
-        xy_m=state.target.xy_m - d,
-        behavior_state=shift_xy_fields(state.target.behavior_state, d),
+        xy_m=state.target.xy_m - d_m,
+        behavior_state=shift_xy_fields(state.target.behavior_state, d_m),
     )
     s = state.sensor
     sensor = s.replace(
-        obs_xy_m=s.obs_xy_m - d,
-        prev_obs_xy_m=s.prev_obs_xy_m - d,
-        pending_xy_m=s.pending_xy_m - d,
-        robot_pose=_shift_pose(s.robot_pose, d),
-        prev_robot_pose=_shift_pose(s.prev_robot_pose, d),
-        pending_robot_pose=_shift_pose(s.pending_robot_pose, d),
+        obs_xy_m=s.obs_xy_m - d_m,
+        prev_obs_xy_m=s.prev_obs_xy_m - d_m,
+        pending_xy_m=s.pending_xy_m - d_m,
+        robot_pose=_shift_pose(s.robot_pose, d_m),
+        prev_robot_pose=_shift_pose(s.prev_robot_pose, d_m),
+        pending_robot_pose=_shift_pose(s.pending_robot_pose, d_m),
     )
     return state.replace(
-        robot=robot, target=target, sensor=sensor, origin_xy_m=state.origin_xy_m + d
+        robot=robot, target=target, sensor=sensor, origin_xy_m=state.origin_xy_m + d_m
     )
+
+
+def recentre(state: EnvState) -> EnvState:
+    """The same state in the frame centred on the robot (which then sits at xy = 0)."""
+    moved = shift(state, state.robot.xy_m)
+    # Exactly 0, not x - x rounded: the robot is the frame's origin.
+    return moved.replace(robot=moved.robot.replace(xy_m=jnp.zeros_like(state.robot.xy_m)))
+
+
+def in_world_frame(state: EnvState) -> EnvState:
+    """The same state with world coordinates stored (``origin_xy_m`` = 0); ``recentre``
+    brings it back. For placing bodies at world positions (tests, scripted starts)."""
+    return shift(state, -state.origin_xy_m)
 
 
 def to_world(state: EnvState, xy_m: jax.Array) -> jax.Array:
