@@ -61,7 +61,7 @@ def _box(spec) -> spaces.Box:
 
 
 def observation_space(env: Environment) -> spaces.Box:
-    """float32 Box of ``env.observation_spec`` (the JAX world: unbounded, (17,), ``Obs.flat``)."""
+    """float32 Box of ``env.observation_spec`` (the JAX world: unbounded, (``obs_dim(world)``,), ``Obs.flat``)."""
     return _box(env.observation_spec)
 
 
