@@ -16,6 +16,7 @@ from flax import struct
 
 from dyncatch.sim.behaviors import TargetCfg
 from dyncatch.sim.fields import static
+from dyncatch.utils.cli_types import SceneName
 
 
 @struct.dataclass
@@ -29,8 +30,9 @@ class ArenaCfg:
 class SceneCfg:
     """Which scene (``dyncatch.sim.scenes.SCENES``) and the range scan s_env (eq. 3)."""
 
-    name: str = static("arena")
-    """Scene: ``arena`` (walled) or ``open_plane`` (the paper's Table I)."""
+    name: SceneName = static("arena")
+    """Scene, a key of ``dyncatch.sim.scenes.SCENES``: ``arena`` (walled) or ``open_plane``
+    (the paper's Table I); ``--scene`` on every command."""
     scan_rays: int = static(8)
     """Rays of the range scan s_env, evenly spread around the base heading (first: ahead)."""
     scan_range_m: float = 10.0
