@@ -107,7 +107,8 @@ class Obs:
     """Base velocity (forward, left) in its own frame, (2,)."""
     robot_yaw_rate_rps: jax.Array = obs_field(())
     target_obs_body_m: jax.Array = obs_field((2,))
-    """Last observed target position in the current base frame, (2,) (zeros before any)."""
+    """Last observed target position in the current base frame, (2,); before any sighting
+    the held point is the robot's start position (zeros until it moves)."""
     time_since_seen_s: jax.Array = obs_field(())
     visible: jax.Array = obs_field(())
     """1.0 if the last camera frame saw the target."""
