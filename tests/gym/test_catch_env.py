@@ -16,7 +16,9 @@ from dyncatch.gym import CATCH_ID, CATCH_VECTOR_ID, register_envs
 from dyncatch.gym.catch_env import CatchEnv, seed_to_key
 from dyncatch.gym.vector_env import CatchVectorEnv
 from dyncatch.sim import env as sim_env
+from dyncatch.sim.api import obs_dim
 from dyncatch.sim.behaviors import BEHAVIORS
+from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.reward import weights
 from dyncatch.sim.validate import ConfigError
 
@@ -33,7 +35,7 @@ def fixed_actions(num_steps: int = NUM_STEPS) -> np.ndarray:
 
 
 def rollout(env: CatchEnv, seed: int, actions: np.ndarray):
-    """(obs (T+1, 17), rewards (T,), infos [T]) from reset(seed) under ``actions``."""
+    """(obs (T+1, 15), rewards (T,), infos [T]) from reset(seed) under ``actions``."""
     obs, _ = env.reset(seed=seed)
     all_obs, rewards, infos = [obs], [], []
     for action in actions:
@@ -72,15 +74,28 @@ class TestGymnasiumApi:
         assert unexpected == []
 
     def test_spaces(self, env):
-        assert env.observation_space.shape == (17,)
+        assert env.observation_space.shape == (15,)
         assert env.observation_space.dtype == np.float32
         np.testing.assert_array_equal(env.action_space.low, [-1.0, -1.0, -2.0])
         np.testing.assert_array_equal(env.action_space.high, [2.0, 1.0, 2.0])
 
+    @pytest.mark.parametrize(("scene", "rays"), [("arena", 8), ("arena", 12), ("open_plane", 3)])
+    def test_observation_space_follows_the_scan(self, scene, rays):
+        # 7 egocentric values (velocity 2, yaw rate 1, sighting 2, age 1, visible 1) + rays.
+        world = WorldCfg().with_scene(scene)
+        world = world.replace(scene=world.scene.replace(scan_rays=rays))
+        assert obs_dim(world) == 7 + rays
+        env = CatchEnv(world=world)
+        assert env.observation_space.shape == (7 + rays,)
+        obs, _ = env.reset(seed=0)
+        assert obs.shape == (7 + rays,) and env.observation_space.contains(obs)
+        obs, *_ = env.step(np.zeros(3, np.float32))
+        assert obs.shape == (7 + rays,)
+
     def test_step_returns_python_scalars(self, env):
         env.reset(seed=0)
         obs, reward, terminated, truncated, info = env.step(np.zeros(3, np.float32))
-        assert obs.dtype == np.float32 and obs.shape == (17,)
+        assert obs.dtype == np.float32 and obs.shape == (15,)
         assert type(reward) is float and type(terminated) is bool and type(truncated) is bool
         assert type(info["success"]) is bool and type(info["distance_m"]) is float
         w = weights(env.world.reward, env.world.episode.dt_s)
@@ -163,7 +178,7 @@ def test_obs_in_space_and_actions_clipped(env):
             for _ in range(50):
                 obs, *_ = env.step(action)
                 assert env.observation_space.contains(obs), obs
-                velocities.append(obs[4:7])
+                velocities.append(obs[0:3])  # base velocity (2) and yaw rate
     velocities = np.array(velocities)
     assert np.all(velocities <= high + margin)
     assert np.all(velocities >= low - margin)

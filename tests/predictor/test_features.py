@@ -25,8 +25,9 @@ H = History(
 
 def test_vanilla_world_by_hand():
     x, yaw = FEATURES["vanilla"]["world"](H, 16.0, 0.5)
-    # p_t / 16, p_{t-1} / 16, velocity (0.5 m in 0.5 s = 1 m/s along x), walls / 16.
-    expected = [5 / 16, 4 / 16, 4.5 / 16, 4 / 16, 1.0, 0.0, 5 / 16, 4 / 16, 11 / 16, 12 / 16]
+    # p_t / 16, p_{t-1} / 16, velocity (0.5 m in 0.5 s = 1 m/s along x); no wall distances
+    # (the open plane has none, and the stored frame moves with the robot).
+    expected = [5 / 16, 4 / 16, 4.5 / 16, 4 / 16, 1.0, 0.0]
     np.testing.assert_allclose(x, expected, atol=1e-6)
     assert float(yaw) == 0.0
 
@@ -37,6 +38,42 @@ def test_egocentric_puts_the_target_in_the_robot_frame():
     np.testing.assert_allclose(x[:2] * 16.0, [0.0, -2.0], atol=1e-5)
     np.testing.assert_allclose(x[4:6], [0.0, -1.0], atol=1e-5)  # its velocity, 1 m/s rightward
     assert float(yaw) == pytest.approx(np.pi / 2)
+
+
+def test_vanilla_egocentric_by_hand():
+    x, yaw = FEATURES["vanilla"]["egocentric"](H, 16.0, 0.5)
+    # 1 m/s along +x, seen by a camera facing +y: 1 m/s to its right, (0, -1) in its frame;
+    # the output is rotated back by the camera's yaw.
+    np.testing.assert_allclose(x, [0.0, -1.0], atol=1e-6)
+    assert float(yaw) == pytest.approx(np.pi / 2)
+
+
+def _moved(h: History, angle_rad: float, shift_m) -> History:
+    """The history under a rigid motion of the plane: rotate by ``angle_rad``, then shift."""
+    c, s = np.cos(angle_rad), np.sin(angle_rad)
+    rot = jnp.array([[c, -s], [s, c]], jnp.float32)
+    shift_m = jnp.asarray(shift_m, jnp.float32)
+
+    def pose(p):
+        return jnp.concatenate([rot @ p[:2] + shift_m, p[2:] + angle_rad])
+
+    return h.replace(
+        target_xy_m=rot @ h.target_xy_m + shift_m,
+        prev_target_xy_m=rot @ h.prev_target_xy_m + shift_m,
+        robot_pose=pose(h.robot_pose),
+        prev_robot_pose=pose(h.prev_robot_pose),
+    )
+
+
+@pytest.mark.parametrize("kind", list(FEATURES))
+@pytest.mark.parametrize(("angle", "shift"), [(0.7, (3.0, -2.0)), (-2.5, (1e3, 40.0))])
+def test_egocentric_inputs_ignore_where_the_world_is(kind, angle, shift):
+    encoder = FEATURES[kind]["egocentric"]
+    x, yaw = encoder(H, 16.0, 0.5)
+    x2, yaw2 = encoder(_moved(H, angle, shift), 16.0, 0.5)
+    np.testing.assert_allclose(x2, x, atol=1e-4)
+    # The output (a velocity in the camera frame) turns with the world.
+    np.testing.assert_allclose(float(yaw2), float(yaw) + angle, atol=1e-6)
 
 
 @pytest.mark.parametrize("kind", list(FEATURES))
@@ -69,7 +106,6 @@ def test_the_layout_names_the_hand_worked_values():
         "target_xy_frac": [5 / 16, 4 / 16],
         "prev_target_xy_frac": [4.5 / 16, 4 / 16],
         "target_vel_mps": [1.0, 0.0],
-        "target_walls_frac": [5 / 16, 4 / 16, 11 / 16, 12 / 16],
     }
     assert named.keys() == expected.keys()
     for name, value in expected.items():

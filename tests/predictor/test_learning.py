@@ -32,7 +32,8 @@ def held_out_errors(behavior: str) -> dict[str, float]:
 @pytest.mark.slow
 def test_self_aware_beats_vanilla_on_reactive_targets():
     err = held_out_errors("reactive")
-    # Measured at this budget: vanilla 0.74 m/s, self-aware 0.28 m/s (targets run 0.8-1.8 m/s).
+    # Measured at this budget: vanilla 0.47 m/s, self-aware 0.21 m/s (targets run 0.8-1.8 m/s;
+    # with the wall features of the old observation: 0.74 and 0.28).
     assert err["self_aware"] < 0.4
     assert err["vanilla"] > 2.0 * err["self_aware"]
 
@@ -40,6 +41,10 @@ def test_self_aware_beats_vanilla_on_reactive_targets():
 @pytest.mark.slow
 def test_both_kinds_learn_the_circle():
     err = held_out_errors("circle")
-    # The label is ~1.3 m/s on average; measured here: vanilla 0.002, self-aware 0.048 m/s.
-    assert err["vanilla"] < 0.02
-    assert err["self_aware"] < 0.08
+    # The label is ~1.3 m/s on average; measured here: vanilla 0.139, self-aware 0.152 m/s.
+    # No input places the target in the world any more (the stored frame is centred on the
+    # robot, the wall distances are gone), so from two sightings the circle's turn direction
+    # is unknown: repeating the last displacement errs by 0.173 m/s on these samples (it was
+    # 0.002 and 0.048 with wall distances in the inputs).
+    assert err["vanilla"] < 0.16
+    assert err["self_aware"] < 0.18

@@ -10,6 +10,8 @@ import jax.numpy as jnp
 from dyncatch.sim import env
 from dyncatch.sim.base import command_high, command_low
 from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.frame import in_world_frame, recentre
+from dyncatch.sim.state import EnvState
 
 
 @partial(jax.jit, static_argnames=("num_envs", "num_steps"))
@@ -48,3 +50,32 @@ def fixed_rollout(state, action: jax.Array, cfg: WorldCfg, num_steps: int):
 
     _, out = jax.lax.scan(body, state, None, length=num_steps)
     return out
+
+
+def place(
+    state: EnvState,
+    robot_xy=None,
+    robot_yaw=None,
+    target_xy=None,
+    heading=None,
+) -> EnvState:
+    """``state`` with the bodies put at the given world positions (m) and headings (rad),
+    returned in the robot-centred frame as ``reset`` returns it; ``distance_m`` follows."""
+    s = in_world_frame(state)
+    robot, target = s.robot, s.target
+    f32 = partial(jnp.asarray, dtype=jnp.float32)
+    if robot_xy is not None:
+        robot = robot.replace(xy_m=f32(robot_xy))
+    if robot_yaw is not None:
+        robot = robot.replace(yaw_rad=f32(robot_yaw))
+    if target_xy is not None:
+        target = target.replace(xy_m=f32(target_xy))
+    if heading is not None:
+        target = target.replace(heading_rad=f32(heading))
+    s = s.replace(robot=robot, target=target, distance_m=jnp.linalg.norm(target.xy_m - robot.xy_m))
+    return recentre(s)
+
+
+def world_xy(states: EnvState, xy_m: jax.Array) -> jax.Array:
+    """Stored positions (..., 2) of ``states`` (any leading axes) in world coordinates."""
+    return xy_m + states.origin_xy_m

@@ -27,7 +27,7 @@ from dyncatch.sim.behaviors.compose import compose_target_cfg
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.validate import validate_world
 
-from .helpers import fixed_rollout
+from .helpers import fixed_rollout, place, world_xy
 
 BODY = ("behavior", "speed_min_mps", "speed_max_mps", "max_turn_rate_rps", "radius_m", "height_m")
 
@@ -104,13 +104,11 @@ class TestRunTimeRegistration:
             assert BEHAVIORS["plus_x"] is PLUS_X
             cfg = validate_world(WorldCfg().with_behavior("plus_x").with_speed(1.0))
             s = jax.jit(env.reset)(jax.random.key(0), cfg)
-            s = s.replace(
-                target=s.target.replace(xy_m=jnp.array([4.0, 8.0]), heading_rad=jnp.array(2.0)),
-                robot=s.robot.replace(xy_m=jnp.array([0.5, 0.5])),
-            )
+            s = place(s, robot_xy=(0.5, 0.5), target_xy=(4.0, 8.0), heading=2.0)
             states, _, _ = fixed_rollout(s, jnp.zeros(3), cfg, 50)
         assert BEHAVIORS == before and "plus_x" not in BEHAVIORS
-        h, xy = np.asarray(states.target.heading_rad), np.asarray(states.target.xy_m)
+        h = np.asarray(states.target.heading_rad)
+        xy = np.asarray(world_xy(states, states.target.xy_m))
         # From 2 rad, turning at 10 rad/s (0.2 rad a step), it points along +x after 10 steps.
         np.testing.assert_allclose(h[:3], [1.8, 1.6, 1.4], atol=1e-5)
         np.testing.assert_allclose(h[10:], 0.0, atol=1e-6)

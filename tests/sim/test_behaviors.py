@@ -17,26 +17,16 @@ from dyncatch.sim.behaviors import (
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.geometry import wrap_angle
 
-from .helpers import fixed_rollout
+from .helpers import fixed_rollout, place, world_xy
 
 CFG = WorldCfg()
 STILL = jnp.zeros(3)
 
 
 def _start(cfg, seed=0, robot_xy=None, robot_yaw=None, target_xy=None, heading=None):
+    """A reset state with the bodies placed at world positions."""
     s = jax.jit(env.reset)(jax.random.key(seed), cfg)
-    robot, target = s.robot, s.target
-    if robot_xy is not None:
-        robot = robot.replace(xy_m=jnp.asarray(robot_xy, jnp.float32))
-    if robot_yaw is not None:
-        robot = robot.replace(yaw_rad=jnp.asarray(robot_yaw, jnp.float32))
-    if target_xy is not None:
-        target = target.replace(xy_m=jnp.asarray(target_xy, jnp.float32))
-    if heading is not None:
-        target = target.replace(heading_rad=jnp.asarray(heading, jnp.float32))
-    return s.replace(
-        robot=robot, target=target, distance_m=jnp.linalg.norm(target.xy_m - robot.xy_m)
-    )
+    return place(s, robot_xy=robot_xy, robot_yaw=robot_yaw, target_xy=target_xy, heading=heading)
 
 
 def test_registry_names_every_behavior():
@@ -54,10 +44,11 @@ def test_circle_keeps_its_radius_for_a_whole_episode():
     # Robot parked in a corner so that it never catches the target.
     s = _start(cfg, robot_xy=(0.5, 0.5))
     states, _, _ = fixed_rollout(s, STILL, cfg, 1000)
-    r = jnp.linalg.norm(states.target.xy_m - 0.5 * cfg.arena.size_m, axis=-1)
+    xy = world_xy(states, states.target.xy_m)
+    r = jnp.linalg.norm(xy - 0.5 * cfg.arena.size_m, axis=-1)
     assert float(jnp.abs(r - cfg.target.circle_radius_m).max()) < 0.05
     # It travels at 1.8 m/s along the circle: 36 m of arc is 7.2 rad of angle.
-    ang = jnp.unwrap(jnp.arctan2(*(states.target.xy_m - 8.0).T[::-1]))
+    ang = jnp.unwrap(jnp.arctan2(*(xy - 8.0).T[::-1]))
     assert abs(abs(float(ang[-1] - ang[0])) - 36.0 / 5.0) < 0.1
 
 
@@ -75,10 +66,10 @@ def test_bounce_mirrors_off_a_wall_and_keeps_its_speed():
         [-math.cos(heading), math.sin(heading)],
         atol=1e-5,
     )
-    xs = states.target.xy_m[:, 0]
-    assert float(xs.max()) <= cfg.arena.size_m - cfg.target.radius_m + 1e-5
+    xy = world_xy(states, states.target.xy_m)
+    assert float(xy[:, 0].max()) <= cfg.arena.size_m - cfg.target.radius_m + 1e-5
     # Two seconds at 1 m/s travel 2 m of path whatever the bounce.
-    step = jnp.linalg.norm(jnp.diff(states.target.xy_m, axis=0), axis=-1)
+    step = jnp.linalg.norm(jnp.diff(xy, axis=0), axis=-1)
     assert float(step.sum()) > 1.9
 
 
@@ -92,7 +83,7 @@ def test_reactive_flees_a_still_robot():
     # It turns around (at 10 rad/s, within a third of a second) and runs off along +x,
     # wobbling by gamma ~ U(-22.5, 22.5) deg: x advances by at least cos(22.5 deg) per metre.
     assert float(infos["distance_m"][-1]) > start + 1.4
-    assert float(states.target.xy_m[-1, 0]) > 4.0 + start + 1.4
+    assert float(world_xy(states, states.target.xy_m)[-1, 0]) > 4.0 + start + 1.4
 
 
 def test_reactive_dodges_to_its_own_side_when_the_robot_is_close():
@@ -125,7 +116,7 @@ def test_circle_state_is_a_direction_of_plus_or_minus_one_that_never_changes():
     directions = np.asarray(starts.target.behavior_state.direction)
     assert set(directions.tolist()) == {-1.0, 1.0}  # a fair coin: both show up in 64 draws
     # The start heading is the tangent in that direction: +90 deg from the radial for +1.
-    rel = starts.target.xy_m - 0.5 * cfg.arena.size_m
+    rel = world_xy(starts, starts.target.xy_m) - 0.5 * cfg.arena.size_m
     radial = jnp.arctan2(rel[:, 1], rel[:, 0])
     turn = np.asarray(wrap_angle(starts.target.heading_rad - radial))
     np.testing.assert_allclose(turn, directions * math.pi / 2, atol=1e-5)
@@ -134,7 +125,7 @@ def test_circle_state_is_a_direction_of_plus_or_minus_one_that_never_changes():
     kept = np.asarray(states.target.behavior_state.direction)
     np.testing.assert_array_equal(kept, float(s.target.behavior_state.direction))
     # And the target really goes round that way: the polar angle moves with the direction.
-    ang = np.unwrap(np.arctan2(*(np.asarray(states.target.xy_m) - 8.0).T[::-1]))
+    ang = np.unwrap(np.arctan2(*(np.asarray(world_xy(states, states.target.xy_m)) - 8.0).T[::-1]))
     assert np.sign(ang[-1] - ang[0]) == kept[0]
 
 

@@ -10,7 +10,7 @@ from dyncatch.sim.behaviors import BEHAVIORS
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.env import catch_error_m
 
-from .helpers import random_rollout
+from .helpers import random_rollout, world_xy
 
 CFG = WorldCfg()
 
@@ -28,8 +28,11 @@ def test_random_rollouts_keep_every_invariant(seed, behavior, speed):
     leaves = jax.tree.leaves((states.robot, states.target, states.sensor, infos, rewards))
     assert all(bool(jnp.all(jnp.isfinite(x))) for x in leaves if x.dtype != bool)
 
+    # The walls of the (default) arena scene stop both bodies, in world coordinates.
+    assert cfg.scene.name == "arena"
     size = cfg.arena.size_m
-    for xy, r in ((robot.xy_m, cfg.base.radius_m), (target.xy_m, cfg.target.radius_m)):
+    bodies = ((robot.xy_m, cfg.base.radius_m), (target.xy_m, cfg.target.radius_m))
+    for xy, r in ((world_xy(states, p), r) for p, r in bodies):
         assert float(xy.min()) >= r - 1e-5
         assert float(xy.max()) <= size - r + 1e-5
 

@@ -8,16 +8,14 @@ from flax import struct
 from dyncatch.sim.state import OBS_DIM, Obs, obs_field
 
 # Per-environment width of each field, in ``flat`` order (the trained networks rely on it).
+# All egocentric (issue 12): no world position, heading or wall distances.
 LAYOUT = {
-    "robot_xy_m": 2,
-    "robot_yaw_cos_sin": 2,
     "robot_vel_body_mps": 2,
     "robot_yaw_rate_rps": 1,
-    "target_obs_xy_m": 2,
     "target_obs_body_m": 2,
     "time_since_seen_s": 1,
     "visible": 1,
-    "wall_distance_m": 4,
+    "scan_m": 8,
 }
 
 
@@ -32,8 +30,8 @@ def _numbered(cls, batch):
     return cls(**fields), start
 
 
-def test_obs_dim_is_17_in_the_documented_order():
-    assert OBS_DIM == sum(LAYOUT.values()) == 17
+def test_obs_dim_is_15_in_the_documented_order():
+    assert OBS_DIM == sum(LAYOUT.values()) == 15
     assert list(Obs.__dataclass_fields__) == list(LAYOUT)
     obs, n = _numbered(Obs, (3, 5))
     flat = obs.flat

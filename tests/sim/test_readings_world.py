@@ -11,6 +11,8 @@ from dyncatch.policies.pursuit import pursuit_policy
 from dyncatch.sim import env
 from dyncatch.sim.config import RewardCfg, WorldCfg
 
+from .helpers import place
+
 STILL = jnp.zeros(3)
 
 
@@ -18,9 +20,7 @@ def _episode(reward: RewardCfg, steps: int = 60):
     """A still target 0.6 m ahead of a still robot (the arm reaches and catches it)."""
     cfg = WorldCfg(reward=reward).with_behavior("bounce").with_speed(0.0)
     s = env.reset(jax.random.key(3), cfg)
-    robot = s.robot.replace(xy_m=s.robot.xy_m * 0 + 8.0, yaw_rad=jnp.zeros(()))
-    target = s.target.replace(xy_m=robot.xy_m + jnp.array([0.6, 0.0]))
-    s = s.replace(robot=robot, target=target, distance_m=jnp.asarray(0.6, jnp.float32))
+    s = place(s, robot_xy=(8.0, 8.0), robot_yaw=0.0, target_xy=(8.6, 8.0))
     step = jax.jit(env.step)
     rows = []
     for _ in range(steps):

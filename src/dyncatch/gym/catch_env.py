@@ -61,7 +61,8 @@ def _box(spec) -> spaces.Box:
 
 
 def observation_space(env: Environment) -> spaces.Box:
-    """float32 Box of ``env.observation_spec`` (the JAX world: unbounded, (17,), ``Obs.flat``)."""
+    """float32 Box of ``env.observation_spec`` (the JAX world: ``Obs.flat``, unbounded,
+    (``sim.api.obs_dim(world)``,))."""
     return _box(env.observation_spec)
 
 

@@ -1,7 +1,9 @@
 """A classical baseline (the paper's Fig. 2, method 1): a constant-velocity Kalman filter
 on the 2 Hz sightings, and a planner that runs for the interception point.
 
-The filter treats x and y alike (same dynamics and noise), so one 2x2 covariance over
+The filter runs in world coordinates: each sighting is the observation's egocentric sighting
+placed by the robot's own odometry pose (``sim.frame.odometry``). It treats x and y alike
+(same dynamics and noise), so one 2x2 covariance over
 (position, velocity) serves both axes. A new sighting is recognised by the observation's
 ``time_since_seen_s`` dropping; latency is ignored (it is zero by default). The planner
 solves |p + v t - r| = s t for the earliest t (s: the base's top speed), caps t at a horizon,
@@ -18,7 +20,9 @@ from flax import struct
 
 from dyncatch.policies.pursuit import PursuitCfg, drive_toward, pursuit_action
 from dyncatch.sim.config import WorldCfg
-from dyncatch.sim.geometry import world_to_body
+from dyncatch.sim.frame import odometry
+from dyncatch.sim.geometry import rotate, world_to_body
+from dyncatch.sim.scenes import get_scene
 from dyncatch.sim.state import EnvState, Obs
 
 
@@ -82,10 +86,10 @@ class InterceptPolicy:
     cfg: InterceptCfg = InterceptCfg()
     pursuit: PursuitCfg = PursuitCfg()
 
-    def _fresh(self, obs: Obs, ready: jax.Array) -> KalmanCarry:
+    def _fresh(self, sighting_m: jax.Array, obs: Obs, ready: jax.Array) -> KalmanCarry:
         """A filter started at the held sighting, at rest, with the initial uncertainty."""
         return KalmanCarry(
-            pos_m=obs.target_obs_xy_m,
+            pos_m=sighting_m,
             vel_mps=jnp.zeros(2),
             cov=jnp.diag(jnp.array([self.cfg.meas_noise_m**2, self.cfg.init_vel_std_mps**2])),
             ready=ready,
@@ -93,28 +97,30 @@ class InterceptPolicy:
         )
 
     def init_carry(self, state: EnvState, obs: Obs) -> KalmanCarry:
-        return self._fresh(obs, obs.visible > 0.5)
+        xy, yaw = odometry(state)
+        return self._fresh(xy + rotate(obs.target_obs_body_m, yaw), obs, obs.visible > 0.5)
 
     def step(self, carry: KalmanCarry, state: EnvState, obs: Obs, key: jax.Array):
-        del state, key
+        del key
         cfg, dt = self.cfg, self.world.episode.dt_s
+        robot_xy, yaw = odometry(state)
+        sighting = robot_xy + rotate(obs.target_obs_body_m, yaw)
         c = kf_predict(carry, dt, cfg.accel_noise_mps2)
         new = obs.time_since_seen_s < carry.last_tss_s
         first = new & ~carry.ready
-        fresh = self._fresh(obs, jnp.ones((), bool))
-        updated = kf_update(c, obs.target_obs_xy_m, cfg.meas_noise_m)
+        fresh = self._fresh(sighting, obs, jnp.ones((), bool))
+        updated = kf_update(c, sighting, cfg.meas_noise_m)
         c = jax.tree.map(lambda a, b: jnp.where(new, a, b), updated, c)
         c = jax.tree.map(lambda a, b: jnp.where(first, a, b), fresh, c)
         c = c.replace(last_tss_s=obs.time_since_seen_s, ready=c.ready | new)
 
-        d = c.pos_m - obs.robot_xy_m
+        d = c.pos_m - robot_xy
         t = interception_time_s(d, c.vel_mps, self.world.base.max_forward_mps, cfg.horizon_s)
         aim = c.pos_m + c.vel_mps * t
-        yaw = jnp.arctan2(obs.robot_yaw_cos_sin[1], obs.robot_yaw_cos_sin[0])
-        lo, hi = 0.0, self.world.arena.size_m
-        aim = jnp.clip(aim, lo, hi)
+        if get_scene(self.world.scene.name).walls:
+            aim = jnp.clip(aim, 0.0, self.world.arena.size_m)
         intercept = drive_toward(
-            world_to_body(aim - obs.robot_xy_m, yaw), jnp.zeros((), bool), self.world, self.pursuit
+            world_to_body(aim - robot_xy, yaw), jnp.zeros((), bool), self.world, self.pursuit
         )
         use_kf = c.ready & (obs.time_since_seen_s < cfg.stale_after_s)
         action = jnp.where(use_kf, intercept, pursuit_action(obs, self.world, self.pursuit))

@@ -3,8 +3,9 @@
 Every environment plays one episode of ``episode.max_steps`` control steps (no auto-reset, so
 camera frames stay aligned with episode time). At each camera frame the robot either pursues
 the target for the next frame period or holds a uniformly random command. A sample is the
-history at frame t (``features.History``) and the label v = (p_{t+1} - p_t) / dt_vis from the
-true target positions at the captures; it is kept only where frames t-1 and t both saw the
+history at frame t (``features.History``, in the simulator's robot-centred frame) and the
+label v = (p_{t+1} - p_t) / dt_vis from the true world positions of the target at the
+captures; it is kept only where frames t-1 and t both saw the
 target. "Interaction steps" are simulator (control) steps: num_envs x max_steps.
 
 Environment ``i`` of a seed is the same whatever the chunking, so the data of a small budget
@@ -27,6 +28,7 @@ from dyncatch.predictor.config import CollectCfg
 from dyncatch.predictor.features import History, history_from_state
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.env import observe, reset, step
+from dyncatch.sim.frame import to_world
 from dyncatch.sim.sensing import latency_steps, period_steps
 
 
@@ -87,7 +89,9 @@ def episode_samples(key: jax.Array, world: WorldCfg, cfg: CollectCfg, frames: in
         state, plan = carry
         plan = frame_plan(jax.random.fold_in(k_frames, k), plan, world, cfg)
         pursue, command = plan
-        capture_xy = state.target.xy_m
+        # World position: the stored one moves with the robot-centred frame every step, so a
+        # difference of stored positions would be the velocity relative to the robot.
+        capture_xy = to_world(state, state.target.xy_m)
         # Frame k is delivered `lag` steps after its capture; with no latency, right now.
         snap = (history_from_state(state), state.sensor.consecutive)
 
@@ -106,7 +110,7 @@ def episode_samples(key: jax.Array, world: WorldCfg, cfg: CollectCfg, frames: in
     first = frame_plan(k_first, (jnp.zeros((), bool), jnp.zeros(3)), world, always)
     init = (reset(k_reset, world), first)
     (state, _), (hist, ok, xy) = jax.lax.scan(frame, init, jnp.arange(frames))
-    xy = jnp.concatenate([xy, state.target.xy_m[None]])
+    xy = jnp.concatenate([xy, to_world(state, state.target.xy_m)[None]])
     label = (xy[1:] - xy[:-1]) / (period * world.episode.dt_s)
     return hist, label, ok
 

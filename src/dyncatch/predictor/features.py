@@ -79,32 +79,25 @@ class Encoder:
         return tuple((name, int(v.shape[0])) for name, v in parts.items())
 
 
-def _walls(xy_m: jax.Array, size_m: float) -> jax.Array:
-    """Distances to the walls (-x, +x, -y, +y) over the arena side, (4,): s_env."""
-    return jnp.concatenate([xy_m, size_m - xy_m]) / size_m
-
-
 def _target_velocity(h: History, dt_s: float) -> jax.Array:
     return (h.target_xy_m - h.prev_target_xy_m) / dt_s
 
 
 def _vanilla_world(h: History, size_m: float, dt_s: float) -> tuple[Parts, jax.Array]:
+    """Sightings in the simulator's stored frame (world axes, origin at the robot now)."""
     parts = {
         "target_xy_frac": h.target_xy_m / size_m,
         "prev_target_xy_frac": h.prev_target_xy_m / size_m,
         "target_vel_mps": _target_velocity(h, dt_s),
-        "target_walls_frac": _walls(h.target_xy_m, size_m),
     }
     return parts, jnp.zeros(())
 
 
 def _vanilla_egocentric(h: History, size_m: float, dt_s: float) -> tuple[Parts, jax.Array]:
-    """Translation to p_t only (no robot yaw to rotate by): the last displacement and walls."""
-    parts = {
-        "target_vel_mps": _target_velocity(h, dt_s),
-        "target_walls_frac": _walls(h.target_xy_m, size_m),
-    }
-    return parts, jnp.zeros(())
+    """The target's last displacement in the camera's frame at its capture (so the input is
+    the same however the world is rotated); no robot state beyond the camera's heading."""
+    yaw = h.robot_pose[2]
+    return {"target_vel_body_mps": world_to_body(_target_velocity(h, dt_s), yaw)}, yaw
 
 
 def _robot_world(h: History, size_m: float) -> Parts:
@@ -125,7 +118,8 @@ def _self_aware_world(h: History, size_m: float, dt_s: float) -> tuple[Parts, ja
 
 
 def _self_aware_egocentric(h: History, size_m: float, dt_s: float) -> tuple[Parts, jax.Array]:
-    """Everything in the robot's frame at t; the reactive rule (eq. 12) reads off it directly."""
+    """Everything in the robot's frame at t (nothing absolute: the same input however the world
+    is placed); the reactive rule (eq. 12) reads off it directly."""
     xy, yaw = h.robot_pose[:2], h.robot_pose[2]
     rel = world_to_body(h.target_xy_m - xy, yaw)
     prev_rel = world_to_body(h.prev_target_xy_m - xy, yaw)
@@ -142,9 +136,6 @@ def _self_aware_egocentric(h: History, size_m: float, dt_s: float) -> tuple[Part
         "prev_robot_dyaw_cos_sin": jnp.stack([jnp.cos(dyaw), jnp.sin(dyaw)]),
         "robot_vel_body_mps": h.robot_vel_body_mps,
         "robot_yaw_rate_rps": h.robot_yaw_rate_rps[None],
-        "robot_yaw_cos_sin": jnp.stack([jnp.cos(yaw), jnp.sin(yaw)]),
-        "target_walls_frac": _walls(h.target_xy_m, size_m),
-        "robot_walls_frac": _walls(xy, size_m),
     }
     return parts, yaw
 
@@ -165,13 +156,12 @@ def _self_aware_relative(h: History, size_m: float, dt_s: float) -> tuple[Parts,
         "prev_robot_yaw_cos_sin": jnp.stack([jnp.cos(prev_yaw), jnp.sin(prev_yaw)]),
         "robot_vel_world_mps": rotate(h.robot_vel_body_mps, yaw),
         "robot_yaw_rate_rps": h.robot_yaw_rate_rps[None],
-        "robot_walls_frac": _walls(xy, size_m),
     }
     return {**parts, **robot}, yaw_out
 
 
 vanilla_world = Encoder(_vanilla_world)
-vanilla_egocentric = Encoder(_vanilla_egocentric)
+vanilla_egocentric = Encoder(_vanilla_egocentric, "the robot yaw at the capture of p_t")
 self_aware_world = Encoder(_self_aware_world)
 self_aware_egocentric = Encoder(_self_aware_egocentric, "the robot yaw at the capture of p_t")
 self_aware_relative = Encoder(_self_aware_relative)
@@ -191,13 +181,12 @@ FEATURES: dict[str, dict[str, Encoder]] = {
 """kind -> frame -> encoder."""
 
 FEATURE_DOCS: dict[str, str] = {
-    "target_xy_frac": "last sighting p_t, world, over the arena side",
-    "prev_target_xy_frac": "the sighting before, p_{t-1}, world, over the arena side",
+    "target_xy_frac": "last sighting p_t, world axes, origin at the robot now, over the side",
+    "prev_target_xy_frac": "the sighting before, p_{t-1}, the same frame, over the side",
     "target_vel_mps": "(p_t - p_{t-1}) / frame_dt_s, world axes",
-    "target_walls_frac": "p_t's distances to the walls (-x, +x, -y, +y) over the arena side",
-    "robot_xy_frac": "robot position at the capture of p_t, world, over the arena side",
+    "robot_xy_frac": "robot position at the capture of p_t, the same frame, over the side",
     "robot_yaw_cos_sin": "cos and sin of the robot yaw at the capture of p_t",
-    "prev_robot_xy_frac": "robot position at the capture of p_{t-1}, world, over the arena side",
+    "prev_robot_xy_frac": "robot position at the capture of p_{t-1}, the same frame, over the side",
     "prev_robot_yaw_cos_sin": "cos and sin of the robot yaw at the capture of p_{t-1}",
     "robot_vel_world_mps": "robot velocity now, rotated into world axes by its yaw at p_t",
     "robot_yaw_rate_rps": "robot yaw rate now",
@@ -211,8 +200,6 @@ FEATURE_DOCS: dict[str, str] = {
     "prev_robot_body_frac": "robot position at p_{t-1} minus at p_t, robot frame at p_t, "
     "over the side",
     "prev_robot_dyaw_cos_sin": "cos and sin of (robot yaw at p_{t-1} - robot yaw at p_t)",
-    "robot_walls_frac": "robot position at p_t: distances to the walls (-x, +x, -y, +y) over "
-    "the arena side",
     "target_rel_frac": "p_t minus the robot position at p_t, world axes, over the arena side",
     "target_dir_unit": "unit vector from the robot at p_t to p_t, world axes",
     "prev_target_rel_frac": "p_{t-1} minus the robot position at p_{t-1}, world axes, over the "

@@ -10,6 +10,7 @@ new value. A second backend implements the same five members and needs no edit t
 
 from __future__ import annotations
 
+import math
 from typing import Any, Protocol, runtime_checkable
 
 import jax
@@ -20,6 +21,13 @@ from dyncatch.sim import env as sim_env
 from dyncatch.sim.base import command_high, command_low
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.state import ACTION_DIM, OBS_DIM, EnvState, Obs
+
+
+def obs_dim(world: WorldCfg) -> int:
+    """Length of ``Obs.flat`` in ``world``: ``OBS_DIM`` with the range scan's width set to
+    ``world.scene.scan_rays`` (``OBS_DIM`` holds the default 8 rays)."""
+    default_rays = math.prod(Obs.__dataclass_fields__["scan_m"].metadata["shape"])
+    return OBS_DIM - default_rays + world.scene.scan_rays
 
 
 @struct.dataclass
@@ -79,9 +87,10 @@ class JaxCatchEnv:
 
     @property
     def observation_spec(self) -> Spec:
-        """``Obs.flat``: unbounded, (OBS_DIM,)."""
-        inf = jnp.full((OBS_DIM,), jnp.inf, jnp.float32)
-        return Spec((OBS_DIM,), -inf, inf)
+        """``Obs.flat``: unbounded, (obs_dim(world),) (15 with the default 8-ray scan)."""
+        n = obs_dim(self.world)
+        inf = jnp.full((n,), jnp.inf, jnp.float32)
+        return Spec((n,), -inf, inf)
 
     @property
     def action_spec(self) -> Spec:

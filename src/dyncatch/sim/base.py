@@ -2,7 +2,8 @@
 
 The gait controller is modelled by what matters to the high-level policy: commanded
 (vx, vy, yaw rate) are clipped to the base's limits and tracked with a first-order lag
-under acceleration limits, plus small gait-induced velocity noise. Walls stop the base.
+under acceleration limits, plus small gait-induced velocity noise. Walls, where the scene
+has them, stop the base.
 Velocities are in the base frame: x forward, y to the left.
 """
 
@@ -47,9 +48,16 @@ def add_gait_noise(robot: RobotState, noise: jax.Array, cfg: BaseCfg) -> RobotSt
 
 
 def base_substep(
-    robot: RobotState, command: jax.Array, cfg: BaseCfg, arena: ArenaCfg, dt_s: float
+    robot: RobotState,
+    command: jax.Array,
+    cfg: BaseCfg,
+    arena: ArenaCfg,
+    origin_xy_m: jax.Array,
+    dt_s: float,
+    walls: bool,
 ) -> RobotState:
-    """Advance the base by one physics sub-step under a clipped ``command`` (3,)."""
+    """Advance the base by one physics sub-step under a clipped ``command`` (3,); where the
+    scene has walls (the square, placed in the local frame by ``origin_xy_m``) they stop it."""
     lin_step = jnp.clip(
         (command[:2] - robot.vel_body_mps) * (dt_s / cfg.lag_s),
         -cfg.max_lin_accel_mps2 * dt_s,
@@ -69,8 +77,10 @@ def base_substep(
     xy = robot.xy_m + rotate(vel_body, robot.yaw_rad) * dt_s
     # A wall stops the body, not the gait: the tracked velocity (what the legs do, and what
     # the policy observes) stays within the command limits while the base slides along it.
+    if walls:
+        xy = jnp.clip(xy, cfg.radius_m - origin_xy_m, arena.size_m - cfg.radius_m - origin_xy_m)
     return robot.replace(
-        xy_m=jnp.clip(xy, cfg.radius_m, arena.size_m - cfg.radius_m),
+        xy_m=xy,
         yaw_rad=wrap_angle(robot.yaw_rad + yaw_rate * dt_s),
         vel_body_mps=vel_body,
         yaw_rate_rps=yaw_rate,

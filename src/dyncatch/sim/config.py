@@ -16,12 +16,27 @@ from flax import struct
 
 from dyncatch.sim.behaviors import TargetCfg
 from dyncatch.sim.fields import static
+from dyncatch.utils.cli_types import SceneName
 
 
 @struct.dataclass
 class ArenaCfg:
     size_m: float = 16.0
-    """Side of the square arena; its lower-left corner is the origin."""
+    """Side of the square region (walls in the ``arena`` scene, the bounce target's virtual
+    boundary on the ``open_plane``); its lower-left corner is the world origin."""
+
+
+@struct.dataclass
+class SceneCfg:
+    """Which scene (``dyncatch.sim.scenes.SCENES``) and the range scan s_env (eq. 3)."""
+
+    name: SceneName = static("arena")
+    """Scene, a key of ``dyncatch.sim.scenes.SCENES``: ``arena`` (walled) or ``open_plane``
+    (the paper's Table I); ``--scene`` on every command."""
+    scan_rays: int = static(8)
+    """Rays of the range scan s_env, evenly spread around the base heading (first: ahead)."""
+    scan_range_m: float = 10.0
+    """Farthest distance a ray reports; it reads this when it hits nothing."""
 
 
 @struct.dataclass
@@ -184,6 +199,7 @@ def jnp_round(x):
 class WorldCfg:
     """Everything the simulator needs; pass it to ``reset`` and ``step``."""
 
+    scene: SceneCfg = SceneCfg()
     arena: ArenaCfg = ArenaCfg()
     base: BaseCfg = BaseCfg()
     arm: ArmCfg = ArmCfg()
@@ -200,3 +216,6 @@ class WorldCfg:
 
     def with_behavior(self, behavior: str) -> WorldCfg:
         return self.replace(target=self.target.replace(behavior=behavior))
+
+    def with_scene(self, scene: str) -> WorldCfg:
+        return self.replace(scene=self.scene.replace(name=scene))

@@ -15,8 +15,11 @@ from dyncatch.sim.arm import arm_substep, gripper_in_base
 from dyncatch.sim.base import add_gait_noise, base_substep, clip_command
 from dyncatch.sim.behaviors import get_behavior
 from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.frame import recentre
 from dyncatch.sim.geometry import bearing, rotate, world_to_body
 from dyncatch.sim.reward import reward_terms, total_reward
+from dyncatch.sim.scan import range_scan
+from dyncatch.sim.scenes import get_scene
 from dyncatch.sim.sensing import initial_sensor, sensor_tick
 from dyncatch.sim.state import EnvState, Obs, RobotState, TargetState
 from dyncatch.sim.target import move, steer
@@ -40,7 +43,8 @@ def catch_error_m(gripper_xyz_m: jax.Array, target: TargetState, cfg: WorldCfg) 
 
 
 def _place_robot(key: jax.Array, target_xy: jax.Array, cfg: WorldCfg) -> jax.Array:
-    """A point at a random distance from the target inside the arena (a few tries, then clip)."""
+    """A point at a random distance from the target; with walls, inside them (a few tries,
+    then clip)."""
     k_a, k_d = jax.random.split(key)
     angles = jax.random.uniform(k_a, (_ROBOT_PLACEMENT_TRIES,), minval=-jnp.pi, maxval=jnp.pi)
     dists = jax.random.uniform(
@@ -50,13 +54,16 @@ def _place_robot(key: jax.Array, target_xy: jax.Array, cfg: WorldCfg) -> jax.Arr
         maxval=cfg.episode.init_distance_max_m,
     )
     cands = target_xy + dists[:, None] * jnp.stack([jnp.cos(angles), jnp.sin(angles)], -1)
+    if not get_scene(cfg.scene.name).walls:
+        return cands[0]
     lo, hi = cfg.base.radius_m, cfg.arena.size_m - cfg.base.radius_m
     ok = jnp.all((cands >= lo) & (cands <= hi), axis=-1)
     return jnp.clip(cands[jnp.argmax(ok)], lo, hi)
 
 
 def reset(key: jax.Array, cfg: WorldCfg) -> EnvState:
-    """A new episode: target placed by its behaviour, robot 2-6 m away facing anywhere."""
+    """A new episode: target placed by its behaviour, robot 2-6 m away facing anywhere; the
+    state is returned in the frame centred on the robot (``sim.frame``)."""
     behavior = get_behavior(cfg.target.behavior)
     k_target, k_speed, k_place, k_yaw, k_sense, k_next = jax.random.split(key, 6)
     t_xy, t_heading, behavior_state = behavior.init_state(k_target, cfg)
@@ -84,7 +91,7 @@ def reset(key: jax.Array, cfg: WorldCfg) -> EnvState:
     # The reset frame counts as a tick; start the clock one step early so its age reads 0.
     sensor = initial_sensor(robot).replace(time_since_seen_s=jnp.full((), -cfg.episode.dt_s))
     sensor = sensor_tick(sensor, robot, target, step0, jax.random.normal(k_sense, (2,)), cfg)
-    return EnvState(
+    state = EnvState(
         robot=robot,
         target=target,
         sensor=sensor,
@@ -92,10 +99,12 @@ def reset(key: jax.Array, cfg: WorldCfg) -> EnvState:
         key=k_next,
         success=jnp.zeros((), bool),
         distance_m=jnp.linalg.norm(t_xy - robot.xy_m),
+        origin_xy_m=jnp.zeros(2),
     )
+    return recentre(state)
 
 
-def _physics_substep(robot, target, command, best_err, cfg: WorldCfg, dt_s, reflect):
+def _physics_substep(robot, target, command, best_err, origin, cfg: WorldCfg, dt_s, reflect):
     gripper_base = gripper_in_base(robot.arm_q_rad, cfg.arm, cfg.base)
     best_err = jnp.minimum(best_err, catch_error_m(gripper_world(robot, gripper_base), target, cfg))
     rel = target.xy_m - robot.xy_m
@@ -107,25 +116,24 @@ def _physics_substep(robot, target, command, best_err, cfg: WorldCfg, dt_s, refl
     )
     active = jnp.sum(rel * rel) <= cfg.arm.activation_distance_m**2
     q = arm_substep(robot.arm_q_rad, gripper_base, goal_base, active, cfg.arm, dt_s)
-    robot = base_substep(robot.replace(arm_q_rad=q), command, cfg.base, cfg.arena, dt_s)
-    target = move(target, cfg.target, cfg.arena, dt_s, reflect)
+    walls = get_scene(cfg.scene.name).walls
+    robot = base_substep(
+        robot.replace(arm_q_rad=q), command, cfg.base, cfg.arena, origin, dt_s, walls
+    )
+    target = move(target, cfg.target, cfg.arena, origin, dt_s, reflect, walls)
     return robot, target, best_err
 
 
 def observe(state: EnvState, cfg: WorldCfg) -> Obs:
+    """The egocentric observation (``Obs``): nothing in it depends on where the world is."""
     robot, sensor = state.robot, state.sensor
-    size = cfg.arena.size_m
-    x, y = robot.xy_m[0], robot.xy_m[1]
     return Obs(
-        robot_xy_m=robot.xy_m,
-        robot_yaw_cos_sin=jnp.stack([jnp.cos(robot.yaw_rad), jnp.sin(robot.yaw_rad)]),
         robot_vel_body_mps=robot.vel_body_mps,
         robot_yaw_rate_rps=robot.yaw_rate_rps,
-        target_obs_xy_m=sensor.obs_xy_m,
         target_obs_body_m=world_to_body(sensor.obs_xy_m - robot.xy_m, robot.yaw_rad),
         time_since_seen_s=sensor.time_since_seen_s,
         visible=sensor.visible.astype(jnp.float32),
-        wall_distance_m=jnp.stack([x, size - x, y, size - y]),
+        scan_m=range_scan(robot.xy_m + state.origin_xy_m, robot.yaw_rad, cfg),
     )
 
 
@@ -150,7 +158,14 @@ def step(state: EnvState, action: jax.Array, cfg: WorldCfg):
     best_err = jnp.full((), jnp.inf)
     for _ in range(n_sub):
         robot, target, best_err = _physics_substep(
-            robot, target, command, best_err, cfg, dt_s / n_sub, behavior.reflects_off_walls
+            robot,
+            target,
+            command,
+            best_err,
+            state.origin_xy_m,
+            cfg,
+            dt_s / n_sub,
+            behavior.reflects_off_walls,
         )
     gripper = gripper_world(robot, gripper_in_base(robot.arm_q_rad, cfg.arm, cfg.base))
     best_err = jnp.minimum(best_err, catch_error_m(gripper, target, cfg))
@@ -169,14 +184,17 @@ def step(state: EnvState, action: jax.Array, cfg: WorldCfg):
         success,
         cfg.sensor,
     )
-    new_state = EnvState(
-        robot=robot,
-        target=target,
-        sensor=sensor,
-        step=step_count,
-        key=key,
-        success=success,
-        distance_m=distance,
+    new_state = recentre(
+        EnvState(
+            robot=robot,
+            target=target,
+            sensor=sensor,
+            step=step_count,
+            key=key,
+            success=success,
+            distance_m=distance,
+            origin_xy_m=state.origin_xy_m,
+        )
     )
     # Eq. 8 read as a terminal event ends the episode at the catch; read as a state
     # indicator it is paid while the catch holds and the episode runs on.

@@ -87,6 +87,10 @@ class EnvState:
     """The catch happened on the last step, () bool."""
     distance_m: jax.Array
     """Planar robot-target distance after the last step (for eq. 6), ()."""
+    origin_xy_m: jax.Array
+    """World position of the frame every position above is stored in, (2,). After each
+    reset and step the frame is re-centred on the robot (its xy is then 0), so a catch far
+    from the world origin is judged as exactly as one at it."""
 
 
 def obs_field(shape: tuple[int, ...]):
@@ -96,31 +100,34 @@ def obs_field(shape: tuple[int, ...]):
 
 @struct.dataclass
 class Obs:
-    """What a policy may see. ``flat`` is the network view, (..., OBS_DIM), fields in order."""
+    """What a policy may see, all egocentric: nothing absolute (no world position or heading),
+    so a policy is the same wherever and however the world is placed. ``flat`` is the
+    network view, (..., OBS_DIM), fields in order."""
 
-    robot_xy_m: jax.Array = obs_field((2,))
-    """Base centre in the world (arena corner at the origin, walls at 0 and the side), (2,)."""
-    robot_yaw_cos_sin: jax.Array = obs_field((2,))
-    """cos and sin of the base heading, (2,)."""
     robot_vel_body_mps: jax.Array = obs_field((2,))
-    """Base velocity (forward, left) in the base frame, (2,)."""
+    """Base velocity (forward, left) in its own frame, (2,)."""
     robot_yaw_rate_rps: jax.Array = obs_field(())
     """Base yaw rate, ()."""
-    target_obs_xy_m: jax.Array = obs_field((2,))
-    """Last observed target position in the world, (2,)."""
     target_obs_body_m: jax.Array = obs_field((2,))
-    """The same point in the current base frame, (2,)."""
+    """Last observed target position in the current base frame, (2,); before any sighting
+    the held point is the robot's start position (zeros until it moves)."""
     time_since_seen_s: jax.Array = obs_field(())
     """Time since the capture of the last sighting (episode time if never seen), ()."""
     visible: jax.Array = obs_field(())
     """1.0 if the last camera frame saw the target."""
-    wall_distance_m: jax.Array = obs_field((4,))
-    """Distance from the base centre to the walls (-x, +x, -y, +y), (4,): s_env."""
+    scan_m: jax.Array = obs_field((8,))
+    """s_env (eq. 3): range scan, the distance along each ray from the base centre to the
+    nearest wall, capped at ``scene.scan_range_m`` (the cap where nothing is hit),
+    (scene.scan_rays,); 8 rays by default."""
 
     @classmethod
-    def layout(cls) -> tuple[tuple[str, int], ...]:
-        """(field name, number of slots in ``flat``) of every field, in ``flat``'s order."""
-        return tuple((f.name, math.prod(f.metadata["shape"])) for f in dataclasses.fields(cls))
+    def layout(cls, scan_rays: int = 8) -> tuple[tuple[str, int], ...]:
+        """(field name, number of slots in ``flat``) of every field, in ``flat``'s order, for
+        a scan of ``scan_rays`` rays (``scene.scan_rays``)."""
+        return tuple(
+            (f.name, scan_rays if f.name == "scan_m" else math.prod(f.metadata["shape"]))
+            for f in dataclasses.fields(cls)
+        )
 
     @property
     def flat(self) -> jax.Array:
@@ -129,7 +136,7 @@ class Obs:
         for f in dataclasses.fields(self):
             x, shape = getattr(self, f.name), f.metadata["shape"]
             batch = x.shape[: x.ndim - len(shape)]
-            parts.append(x.reshape(*batch, math.prod(shape)))
+            parts.append(x.reshape(*batch, -1) if shape else x.reshape(*batch, 1))
         return jnp.concatenate(parts, axis=-1)
 
 
@@ -139,6 +146,7 @@ def _obs_dim() -> int:
 
 
 OBS_DIM = _obs_dim()
-"""Length of ``Obs.flat``, derived from the fields' shapes (so a new field updates it)."""
+"""Length of ``Obs.flat`` with the default 8-ray scan, derived from the fields' shapes (so a
+new field updates it); ``dyncatch.sim.api.obs_dim(world)`` for another scan."""
 ACTION_DIM = 3
 """Base command (vx, vy, yaw rate)."""

@@ -20,18 +20,28 @@ def steer(target: TargetState, desired_heading_rad: jax.Array, cfg: TargetCfg, d
 
 
 def move(
-    target: TargetState, cfg: TargetCfg, arena: ArenaCfg, dt_s: float, reflect: bool
+    target: TargetState,
+    cfg: TargetCfg,
+    arena: ArenaCfg,
+    origin_xy_m: jax.Array,
+    dt_s: float,
+    reflect: bool,
+    walls: bool,
 ) -> TargetState:
-    """Integrate one sub-step; walls either mirror the motion or stop the normal component."""
+    """Integrate one sub-step. The square's sides (placed in the local frame by
+    ``origin_xy_m``) mirror a reflecting target in every scene; other targets only meet
+    them where they are walls, and then slide along them."""
     c, s = jnp.cos(target.heading_rad), jnp.sin(target.heading_rad)
     xy = target.xy_m + target.speed_mps * dt_s * jnp.stack([c, s])
-    lo, hi = cfg.radius_m, arena.size_m - cfg.radius_m
+    lo = cfg.radius_m - origin_xy_m
+    hi = arena.size_m - cfg.radius_m - origin_xy_m
     if not reflect:
-        return target.replace(xy_m=jnp.clip(xy, lo, hi))
+        return target.replace(xy_m=jnp.clip(xy, lo, hi) if walls else xy)
     below, above = xy < lo, xy > hi
     xy = jnp.where(below, 2 * lo - xy, jnp.where(above, 2 * hi - xy, xy))
     xy = jnp.clip(xy, lo, hi)
     flip = below | above
-    vx = jnp.where(flip[0], -jnp.abs(c) * jnp.sign(xy[0] - 0.5 * arena.size_m), c)
-    vy = jnp.where(flip[1], -jnp.abs(s) * jnp.sign(xy[1] - 0.5 * arena.size_m), s)
+    centre = 0.5 * (lo + hi)
+    vx = jnp.where(flip[0], -jnp.abs(c) * jnp.sign(xy[0] - centre[0]), c)
+    vy = jnp.where(flip[1], -jnp.abs(s) * jnp.sign(xy[1] - centre[1]), s)
     return target.replace(xy_m=xy, heading_rad=jnp.arctan2(vy, vx))

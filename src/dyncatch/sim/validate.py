@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dyncatch.sim.behaviors import BEHAVIORS, get_behavior
 from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.scenes import SCENES
 
 
 class ConfigError(ValueError):
@@ -15,6 +16,13 @@ def validate_world(cfg: WorldCfg) -> WorldCfg:
     t, s, e, b, a = cfg.target, cfg.sensor, cfg.episode, cfg.base, cfg.arm
     period_s = 1.0 / s.rate_hz if s.rate_hz > 0 else float("inf")
     checks = [
+        (
+            cfg.scene.name in SCENES,
+            "scene.name",
+            f"unknown scene {cfg.scene.name!r}; choose one of {', '.join(SCENES)}",
+        ),
+        (cfg.scene.scan_rays >= 1, "scene.scan_rays", "need at least one ray"),
+        (cfg.scene.scan_range_m > 0, "scene.scan_range_m", "must be positive"),
         (
             t.behavior in BEHAVIORS,
             "target.behavior",

@@ -6,6 +6,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from typing import Annotated
 
+import tyro
 from tyro.constructors import PrimitiveConstructorSpec
 
 
@@ -78,3 +79,26 @@ def _readings() -> Sequence[str]:
 
 ReadingName = live_name(_readings, "READING")
 """A key of ``dyncatch.reproduce.readings.READINGS``."""
+
+
+def _scenes() -> Sequence[str]:
+    from dyncatch.sim.scenes import SCENES
+
+    return tuple(SCENES)
+
+
+SceneName = Annotated[
+    str,
+    PrimitiveConstructorSpec(
+        nargs=1,
+        metavar="SCENE",
+        instance_from_str=lambda args: args[0],
+        is_instance=lambda x: isinstance(x, str),
+        str_from_instance=lambda x: [x],
+        choices=LiveChoices(_scenes),
+    ),
+    # tyro does not prefix an alias, so every command holding one world (all of them) reads
+    # ``--scene`` as well as ``--world.scene.name``.
+    tyro.conf.arg(aliases=("--scene",)),
+]
+"""A key of ``dyncatch.sim.scenes.SCENES``; ``--scene`` on the command line."""

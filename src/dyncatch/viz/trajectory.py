@@ -39,15 +39,19 @@ BUILTIN_KEYS = (
 
 def _snapshot(state: EnvState, done: jax.Array, extra_fn, obs: Obs) -> dict:
     """The recorded values of one state (one row of the trajectory)."""
+    # Positions are stored relative to the robot (``sim.frame``); rows are in world
+    # coordinates.
+    origin = state.origin_xy_m
+    gripper = state.robot.gripper_xyz_m
     row = {
         "step": state.step,
-        "robot_xy_m": state.robot.xy_m,
+        "robot_xy_m": state.robot.xy_m + origin,
         "robot_yaw_rad": state.robot.yaw_rad,
         "robot_speed_mps": jnp.linalg.norm(state.robot.vel_body_mps),
-        "gripper_xyz_m": state.robot.gripper_xyz_m,
-        "target_xy_m": state.target.xy_m,
+        "gripper_xyz_m": jnp.concatenate([gripper[:2] + origin, gripper[2:]]),
+        "target_xy_m": state.target.xy_m + origin,
         "target_speed_mps": state.target.speed_mps,
-        "obs_xy_m": state.sensor.obs_xy_m,
+        "obs_xy_m": state.sensor.obs_xy_m + origin,
         "visible": state.sensor.visible,
         "ever_seen": state.sensor.ever_seen,
         "success": state.success,

@@ -28,9 +28,13 @@ class CircleCfg:
 class CircleState:
     direction: jax.Array
     """Direction of travel, (): +1.0 counter-clockwise, -1.0 clockwise; drawn at reset."""
+    centre_xy_m: jax.Array
+    """The circle's centre (the square's centre) in the local frame, (2,); it moves with
+    the frame (``sim.frame.recentre``)."""
 
 
 def _centre(cfg: WorldCfg) -> jax.Array:
+    """The square's centre in world coordinates (the frame at reset)."""
     return jnp.full((2,), 0.5 * cfg.arena.size_m)
 
 
@@ -40,7 +44,7 @@ def circle_heading(
     """Tangent to the circle, leaning toward it when off it (the state is kept)."""
     del robot, key
     state: CircleState = target.behavior_state
-    rel = target.xy_m - _centre(cfg)
+    rel = target.xy_m - state.centre_xy_m
     radial = jnp.arctan2(rel[1], rel[0])
     radius_err = jnp.linalg.norm(rel) - cfg.target.circle_radius_m
     lean = jnp.clip(_RADIAL_GAIN_RAD_PER_M * radius_err, -0.5 * jnp.pi, 0.5 * jnp.pi)
@@ -54,7 +58,8 @@ def circle_init(key: jax.Array, cfg: WorldCfg) -> tuple[jax.Array, jax.Array, Ci
     phase = jax.random.uniform(k_phase, (), minval=-jnp.pi, maxval=jnp.pi)
     direction = jnp.where(jax.random.bernoulli(k_dir), 1.0, -1.0)
     xy = _centre(cfg) + cfg.target.circle_radius_m * jnp.stack([jnp.cos(phase), jnp.sin(phase)])
-    return xy, phase + direction * 0.5 * jnp.pi, CircleState(direction=direction)
+    state = CircleState(direction=direction, centre_xy_m=_centre(cfg))
+    return xy, phase + direction * 0.5 * jnp.pi, state
 
 
 def circle_validate(cfg: WorldCfg) -> list[Check]:
