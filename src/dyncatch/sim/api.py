@@ -13,12 +13,12 @@ from __future__ import annotations
 from typing import Any, Protocol, runtime_checkable
 
 import jax
-import jax.numpy as jnp
 from flax import struct
 
 from dyncatch.sim import env as sim_env
 from dyncatch.sim.base import command_high, command_low
 from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.obs_bounds import obs_bounds
 from dyncatch.sim.state import ACTION_DIM, OBS_DIM, EnvState, Obs
 
 
@@ -79,9 +79,11 @@ class JaxCatchEnv:
 
     @property
     def observation_spec(self) -> Spec:
-        """``Obs.flat``: unbounded, (OBS_DIM,)."""
-        inf = jnp.full((OBS_DIM,), jnp.inf, jnp.float32)
-        return Spec((OBS_DIM,), -inf, inf)
+        """``Obs.flat``, (OBS_DIM,), within the bounds the simulator guarantees
+        (``sim.obs_bounds``: positions in the arena, cos/sin, the visible flag, time since
+        seen >= 0, velocities within the command limits; infinite where none is proven)."""
+        low, high = obs_bounds(self.world)
+        return Spec((OBS_DIM,), low.flat, high.flat)
 
     @property
     def action_spec(self) -> Spec:
