@@ -8,7 +8,7 @@ export JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS := 0.5
 export MPLBACKEND := Agg
 export XLA_FLAGS ?= --xla_cpu_multi_thread_eigen=true
 
-.PHONY: demo test lint format bench clean venv
+.PHONY: demo test lint format bench examples clean venv
 
 venv: $(STAMP)
 
@@ -30,15 +30,22 @@ test: $(STAMP)
 	$(BIN)/python -m pytest -n 2 --dist loadfile --durations=15
 
 lint: $(STAMP)
-	$(BIN)/ruff check src tests benchmarks
-	$(BIN)/ruff format --check src tests benchmarks
+	$(BIN)/ruff check src tests benchmarks examples
+	$(BIN)/ruff format --check src tests benchmarks examples
 
 format: $(STAMP)
-	$(BIN)/ruff format src tests benchmarks
-	$(BIN)/ruff check --fix src tests benchmarks
+	$(BIN)/ruff format src tests benchmarks examples
+	$(BIN)/ruff check --fix src tests benchmarks examples
 
 bench: $(STAMP)
 	$(BIN)/dyncatch bench env
+
+# Stable-Baselines3 and skrl (torch) trained on the Gymnasium adapters at their full budget,
+# then evaluated as `dyncatch eval` does (docs/ecosystem_gym.md). Not part of `make test`.
+examples: $(STAMP)
+	$(BIN)/python -m pip install -q -e '.[dev,examples]'
+	$(BIN)/python examples/sb3_ppo.py
+	$(BIN)/python examples/skrl_ppo.py
 
 clean:
 	rm -rf $(VENV) .cache results .pytest_cache

@@ -1,4 +1,5 @@
-"""CatchEnv: gymnasium's checker, seeding, parity with the pure simulator, clipping."""
+"""CatchEnv: gymnasium's checker, seeding, parity with the pure simulator, clipping, and every
+observation of random rollouts inside the observation space."""
 
 from __future__ import annotations
 
@@ -10,22 +11,36 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
 
 import dyncatch  # noqa: F401  (registers the gymnasium ids)
-from dyncatch.gym import CATCH_ID, CATCH_VECTOR_ID, register_envs
-from dyncatch.gym.catch_env import CatchEnv, seed_to_key
-from dyncatch.gym.vector_env import CatchVectorEnv
+from dyncatch.gym import CATCH_ID
+from dyncatch.gym.catch_env import CatchEnv, reset_flat, seed_to_key, step_flat
 from dyncatch.sim import env as sim_env
 from dyncatch.sim.api import obs_dim
 from dyncatch.sim.behaviors import BEHAVIORS
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.reward import weights
+from dyncatch.sim.state import Obs
 from dyncatch.sim.validate import ConfigError
 
 NUM_STEPS = 20
-# check_env warns about these by design: the observation is unbounded and the action is the
-# physical command (vx in [-1, 2] m/s, ...), not a normalised one.
+# check_env warns about these by design: the target's observed position and the time since
+# the last sighting have no finite bound (sim/obs_bounds.py), and the action is the physical
+# command (vx in [-1, 2] m/s, ...), not a normalised one.
 EXPECTED_WARNINGS = ("infinity", "symmetric and normalized")
+_OFFSETS = dict(
+    zip(
+        [name for name, _ in Obs.layout()],
+        np.cumsum([0] + [size for _, size in Obs.layout()])[:-1],
+        strict=True,
+    )
+)
+VEL = slice(int(_OFFSETS["robot_vel_body_mps"]), int(_OFFSETS["robot_vel_body_mps"]) + 3)
+"""robot_vel_body_mps (2) and robot_yaw_rate_rps (1) in ``Obs.flat``."""
+TIME = int(_OFFSETS["time_since_seen_s"])
+"""time_since_seen_s in ``Obs.flat``."""
 
 
 def fixed_actions(num_steps: int = NUM_STEPS) -> np.ndarray:
@@ -211,25 +226,86 @@ class TestConfigErrors:
             env.step(np.zeros(2, np.float32))
 
     def test_render_mode_refused(self):
-        with pytest.raises(ValueError, match="render_mode"):
+        with pytest.raises(ValueError, match=r"render_mode 'human'.*rgb_array"):
             CatchEnv(render_mode="human")
 
 
-def test_registration_is_idempotent():
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        register_envs()
-        register_envs()
-    assert gymnasium.spec(CATCH_ID).max_episode_steps is None
-    venv = gymnasium.make_vec(CATCH_VECTOR_ID, num_envs=3, behavior="bounce")
-    assert isinstance(venv, CatchVectorEnv)
-    assert (venv.num_envs, venv.world.target.behavior) == (3, "bounce")
+def random_world(w: WorldCfg, speed, arena_m, lag_s, gait_noise, cam_noise, latency_s, dur_s):
+    """``w`` with the fields the observation bounds depend on (or might) changed."""
+    base = w.base.replace(lag_s=lag_s, gait_noise_mps=gait_noise, gait_noise_yaw_rps=gait_noise)
+    return w.replace(
+        arena=w.arena.replace(size_m=arena_m),
+        base=base,
+        sensor=w.sensor.replace(noise_m=cam_noise, latency_s=latency_s),
+        episode=w.episode.replace(duration_s=dur_s),
+    ).with_speed(speed)
 
 
-def test_gymnasium_make_and_dyncatch_train_share_the_training_reward():
-    from dyncatch.rl.runner import TrainRunCfg
+def random_command_obs(env: CatchEnv, seed: int, amplitude: float, hold: int, steps: int):
+    """Every observation (steps + resets, 17) of ``steps`` control steps under uniform random
+    commands in ``amplitude`` x the command box, each held ``hold`` steps, resetting after
+    each episode; through the adapter's jitted reset/step (no Python per-step overhead)."""
+    rng = np.random.default_rng(seed)
+    low, high = env.action_space.low * amplitude, env.action_space.high * amplitude
+    state, obs = reset_flat(seed_to_key(seed), env.env)
+    seen = [obs]
+    for t in range(steps):
+        if t % hold == 0:
+            action = jnp.asarray(rng.uniform(low, high).astype(np.float32))
+        state, obs, _, info = step_flat(state, action, env.env)
+        seen.append(obs)
+        if info["terminated"] or info["truncated"]:
+            state, obs = reset_flat(seed_to_key(seed + t + 1), env.env)
+            seen.append(obs)
+    return np.stack(jax.device_get(seen))
 
-    made = gymnasium.make(CATCH_ID).unwrapped.world
-    assert made.reward == TrainRunCfg().world.reward
-    # The visibility term pays 0.2 per second (0.004 per 50 Hz step), not 0.2 per step.
-    assert weights(made.reward, made.episode.dt_s)["visibility"] == pytest.approx(0.004)
+
+class TestObservationBounds:
+    @pytest.mark.parametrize("behavior", sorted(BEHAVIORS))
+    @settings(max_examples=4, deadline=None)
+    @given(
+        seed=st.integers(0, 2**31 - 1),
+        amplitude=st.sampled_from([0.5, 1.0, 5.0]),
+        hold=st.integers(1, 150),
+        speed=st.floats(0.0, 3.0),
+        arena_m=st.floats(11.0, 30.0),
+        lag_s=st.floats(0.00501, 0.3),
+        gait_noise=st.floats(0.0, 0.5),
+        cam_noise=st.floats(0.0, 0.5),
+        latency_s=st.floats(0.0, 0.45),
+        dur_s=st.floats(0.3, 12.0),
+    )
+    def test_every_observation_lies_in_the_space(
+        self, made_envs, behavior, seed, amplitude, hold, speed, arena_m, lag_s, gait_noise,
+        cam_noise, latency_s, dur_s,
+    ):  # fmt: skip
+        """Random worlds and commands (up to 5x the limits, held up to 3 s, so the base
+        presses into walls), many episodes: no observation leaves the declared space."""
+        base = made_envs[behavior].world
+        world = random_world(base, speed, arena_m, lag_s, gait_noise, cam_noise, latency_s, dur_s)
+        try:
+            env = CatchEnv(behavior, world=world)
+        except ConfigError:
+            assume(False)
+        obs = random_command_obs(env, seed, amplitude, hold, steps=800)
+        space = env.observation_space
+        outside = ~((obs >= space.low) & (obs <= space.high))
+        rows, cols = np.nonzero(outside)
+        assert rows.size == 0, (rows[:5], cols[:5], obs[rows[:5], cols[:5]])
+        assert all(space.contains(o) for o in obs[:: max(1, len(obs) // 20)])
+        # The reset observation reads exactly 0 s since the last sighting: the bound is tight.
+        assert obs[0, TIME] == 0.0
+
+    def test_velocity_bound_is_needed_where_it_is_dropped(self, made_envs):
+        """With a 0.004 s lag under 0.005 s sub-steps the base overshoots its limits, and the
+        space says nothing about velocities."""
+        base = made_envs["circle"].world
+        env = CatchEnv("circle", world=base.replace(base=base.base.replace(lag_s=0.004)))
+        obs = random_command_obs(env, 0, amplitude=5.0, hold=50, steps=400)
+        limits = env.env.action_spec
+        overshoot = (obs[:, VEL] > np.asarray(limits.high) + 1e-4) | (
+            obs[:, VEL] < np.asarray(limits.low) - 1e-4
+        )
+        assert overshoot.any()
+        assert np.isposinf(env.observation_space.high[VEL]).all()
+        assert np.isneginf(env.observation_space.low[VEL]).all()

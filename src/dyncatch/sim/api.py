@@ -14,12 +14,12 @@ import math
 from typing import Any, Protocol, runtime_checkable
 
 import jax
-import jax.numpy as jnp
 from flax import struct
 
 from dyncatch.sim import env as sim_env
 from dyncatch.sim.base import command_high, command_low
 from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.obs_bounds import obs_bounds
 from dyncatch.sim.state import ACTION_DIM, OBS_DIM, EnvState, Obs
 
 
@@ -87,10 +87,12 @@ class JaxCatchEnv:
 
     @property
     def observation_spec(self) -> Spec:
-        """``Obs.flat``: unbounded, (obs_dim(world),) (15 with the default 8-ray scan)."""
+        """``Obs.flat``, (obs_dim(world),), within the bounds the simulator guarantees
+        (``sim.obs_bounds``: velocities within the command limits, the visible flag, time
+        since seen >= 0, the scan within [0, its range]; infinite where none is proven)."""
+        low, high = obs_bounds(self.world)
         n = obs_dim(self.world)
-        inf = jnp.full((n,), jnp.inf, jnp.float32)
-        return Spec((n,), -inf, inf)
+        return Spec((n,), low.flat, high.flat)
 
     @property
     def action_spec(self) -> Spec:

@@ -1,17 +1,16 @@
-"""Top-down frames of a recorded episode, and writing them as a GIF or MP4.
+"""Top-down frames of one state or a recorded episode, and writing them as a GIF or MP4.
 
-One Agg figure (no pyplot, no global state) is built per call of ``render_frames``; each
-frame only moves its artists and redraws. Colours are fixed module constants so that tests
-can look for them in the pixels.
+``TopDownDrawer`` owns one Agg figure (no pyplot, no global state) and draws one state from
+its values (a row of ``viz.trajectory.STATE_KEYS``); ``render_frames`` draws a recorded
+trajectory with it, and the Gymnasium adapters draw their current state with it. Each frame
+only moves the artists and redraws. Colours are fixed module constants so that tests can
+look for them in the pixels. ``write_video`` (from ``viz.video``) is re-exported here, where
+its callers have always found it.
 """
 
 from __future__ import annotations
 
-import os
-import uuid
-import warnings
-from collections.abc import Sequence
-from pathlib import Path
+from collections.abc import Mapping
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -22,6 +21,18 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Polygon, Rectangle, Wedge
 
 from dyncatch.sim.config import WorldCfg
+from dyncatch.viz.video import VIDEO_SUFFIXES, write_video
+
+__all__ = [
+    "VIDEO_SUFFIXES",
+    "TopDownDrawer",
+    "frame_rows",
+    "pixel_of",
+    "render_frames",
+    "trail_rows",
+    "view_extent_m",
+    "write_video",
+]
 
 TARGET_COLOR = "#d62728"
 ROBOT_COLOR = "#1f5fbf"
@@ -35,7 +46,6 @@ FOV_BLIND_COLOR = "#bcbd22"
 CAUGHT_COLOR = "#1a7f1a"
 TRAIL_S = 2.0
 """Length of the target's fading trail."""
-VIDEO_SUFFIXES = (".gif", ".mp4")
 
 _DPI = 100
 _MARGIN_M = 0.15
@@ -77,21 +87,34 @@ def _footprint(xy: np.ndarray, yaw: float, length: float, width: float) -> np.nd
     return xy + half @ np.array([[c, s], [-s, c]])
 
 
-class _Scene:
-    """The figure and its moving artists; ``draw(i)`` renders row ``i`` of a trajectory."""
+def trail_rows(cfg: WorldCfg) -> int:
+    """Control steps the target's trail spans (``TRAIL_S`` at the control rate)."""
+    return max(1, round(TRAIL_S / cfg.episode.dt_s))
 
-    def __init__(self, traj: dict[str, np.ndarray], cfg: WorldCfg, size_px: int):
-        self.traj = traj
+
+class TopDownDrawer:
+    """The figure and its moving artists for one world; ``draw`` renders one state.
+
+    Args:
+        cfg: the world (arena, base and arm sizes, camera cone, control rate).
+        size_px: width and height of each frame in pixels (at least 64).
+        with_pred: draw ``pred_vel_mps`` (and its key entry); rows must then carry it.
+    """
+
+    def __init__(self, cfg: WorldCfg, size_px: int = 480, with_pred: bool = False):
+        if size_px < 64:
+            raise ValueError(f"size_px must be at least 64, got {size_px}")
+        self.size_px = size_px
+        self.with_pred = with_pred
         self.fig = Figure(figsize=(size_px / _DPI, size_px / _DPI), dpi=_DPI)
         self.canvas = FigureCanvasAgg(self.fig)
-        self.trail_rows = max(1, round(TRAIL_S / cfg.episode.dt_s))
         self.mount_x = cfg.arm.mount_x_m
         self.base_dims = (cfg.base.length_m, cfg.base.width_m)
         self.half_fov_deg = np.degrees(0.5 * cfg.sensor.fov_rad)
         self.trail_rgb = np.array(to_rgb(TARGET_COLOR))
         pt = size_px / 480.0  # markers and fonts scale with the frame
         ax = self.fig.add_axes((0.0, 0.0, 1.0, 1.0))
-        arena = self._add_static(ax, cfg, pt, with_pred="pred_vel_mps" in traj)
+        arena = self._add_static(ax, cfg, pt, with_pred=with_pred)
         lo, hi = view_extent_m(cfg)
 
         self.fov = ax.add_patch(Wedge((0, 0), cfg.sensor.range_m, 0, 0, lw=0, zorder=1))
@@ -125,7 +148,7 @@ class _Scene:
                 lw=0,
                 alpha=0.9,
                 zorder=6,
-                visible="pred_vel_mps" in traj,
+                visible=with_pred,
             )
         )
         target_ms = max(8 * pt, 2 * cfg.target.radius_m * size_px / (hi - lo))
@@ -183,13 +206,25 @@ class _Scene:
                   borderaxespad=0.0)  # fmt: skip
         return arena
 
-    def draw(self, i: int) -> np.ndarray:
-        """Render row ``i``; returns (H, W, 3) uint8."""
-        tr = self.traj
-        xy, yaw = tr["robot_xy_m"][i].astype(float), float(tr["robot_yaw_rad"][i])
+    def draw(
+        self, row: Mapping[str, np.ndarray], trail_xy_m: np.ndarray | None = None
+    ) -> np.ndarray:
+        """Render one state; returns (size_px, size_px, 3) uint8.
+
+        Args:
+            row: one state's values, keyed as ``viz.trajectory.STATE_KEYS`` (``time_s`` ()
+                in s, ``robot_xy_m`` (2,), ``robot_yaw_rad`` (), ``robot_speed_mps`` (),
+                ``gripper_xyz_m`` (3,), ``target_xy_m`` (2,), ``target_speed_mps`` (),
+                ``obs_xy_m`` (2,), ``visible``, ``ever_seen``, ``success`` () bool), plus
+                ``pred_vel_mps`` (2,) in m/s if the drawer was built ``with_pred``.
+            trail_xy_m: the target's recent positions (K, 2), oldest first, ending with this
+                state's; at most ``trail_rows(cfg) + 1`` are meant to be given. None: no trail.
+        """
+        xy = np.asarray(row["robot_xy_m"], float)
+        yaw = float(row["robot_yaw_rad"])
         heading = np.array([np.cos(yaw), np.sin(yaw)])
         yaw_deg = np.degrees(yaw)
-        visible = bool(tr["visible"][i])
+        visible = bool(row["visible"])
 
         self.fov.set_center(xy)
         self.fov.set_theta1(yaw_deg - self.half_fov_deg)
@@ -200,37 +235,40 @@ class _Scene:
         self.body.set_xy(_footprint(xy, yaw, *self.base_dims))
         nose = xy + 0.5 * self.base_dims[0] * heading
         self.heading.set_xy(_arrow(nose, _HEADING_LEN_M * heading, 0.05, 0.22))
-        grip = tr["gripper_xyz_m"][i, :2]
+        grip = np.asarray(row["gripper_xyz_m"], float)[:2]
         mount = xy + self.mount_x * heading
         self.arm_line.set_data([mount[0], grip[0]], [mount[1], grip[1]])
         self.gripper.set_data([grip[0]], [grip[1]])
 
-        t_xy = tr["target_xy_m"][i]
+        t_xy = np.asarray(row["target_xy_m"], float)
         self.target.set_data([t_xy[0]], [t_xy[1]])
-        lo = max(0, i - self.trail_rows)
-        pts = tr["target_xy_m"][lo : i + 1]
-        segments = np.stack([pts[:-1], pts[1:]], axis=1)
+        pts = np.zeros((0, 2)) if trail_xy_m is None else np.asarray(trail_xy_m, float)
+        segments = np.stack([pts[:-1], pts[1:]], axis=1) if len(pts) > 1 else np.zeros((0, 2, 2))
         alpha = np.linspace(0.05, 0.8, len(segments))
         self.trail.set_segments(segments)
         self.trail.set_color(np.column_stack([np.tile(self.trail_rgb, (len(segments), 1)), alpha]))
-        if tr["ever_seen"][i]:
-            self.seen.set_data([tr["obs_xy_m"][i, 0]], [tr["obs_xy_m"][i, 1]])
+        if row["ever_seen"]:
+            seen = np.asarray(row["obs_xy_m"], float)
+            self.seen.set_data([seen[0]], [seen[1]])
         else:
             self.seen.set_data([], [])
-        if "pred_vel_mps" in tr:  # drawn as the displacement over one second
-            self.pred.set_xy(_arrow(t_xy, tr["pred_vel_mps"][i], 0.06, 0.22))
+        if self.with_pred:  # drawn as the displacement over one second
+            self.pred.set_xy(_arrow(t_xy, np.asarray(row["pred_vel_mps"], float), 0.06, 0.22))
 
-        caught = bool(tr["success"][i])
+        caught = bool(row["success"])
         status = "CAUGHT" if caught else ("in view" if visible else "out of view")
         self.text.set_color(CAUGHT_COLOR if caught else "black")
         self.text.set_text(
-            f"t {tr['time_s'][i]:5.2f} s | target {tr['target_speed_mps'][i]:.2f} m/s | "
-            f"robot {tr['robot_speed_mps'][i]:.2f} m/s | {status}"
+            f"t {float(row['time_s']):5.2f} s | target {float(row['target_speed_mps']):.2f} m/s | "
+            f"robot {float(row['robot_speed_mps']):.2f} m/s | {status}"
         )
         self.canvas.restore_region(self.background)
         for artist in self.moving:
             self.fig.draw_artist(artist)
-        return np.asarray(self.canvas.buffer_rgba())[..., :3].copy()
+        frame = np.asarray(self.canvas.buffer_rgba())[..., :3].copy()
+        if frame.shape[:2] != (self.size_px, self.size_px):
+            raise RuntimeError(f"Agg drew {frame.shape[:2]} pixels, expected {self.size_px}")
+        return frame
 
 
 def frame_rows(num_rows: int, every: int) -> list[int]:
@@ -254,65 +292,10 @@ def render_frames(
     its last 2 s, the held sighting (hollow ring), ``pred_vel_mps`` if recorded (an arrow of
     one second of motion) and a status line.
     """
-    if size_px < 64:
-        raise ValueError(f"size_px must be at least 64, got {size_px}")
-    scene = _Scene(traj, cfg, size_px)
-    frames = [scene.draw(i) for i in frame_rows(len(traj["time_s"]), every)]
-    if frames and frames[0].shape[:2] != (size_px, size_px):
-        raise RuntimeError(f"Agg drew {frames[0].shape[:2]} pixels, expected {size_px}")
+    drawer = TopDownDrawer(cfg, size_px, with_pred="pred_vel_mps" in traj)
+    span = trail_rows(cfg)
+    frames = []
+    for i in frame_rows(len(traj["time_s"]), every):
+        row = {name: values[i] for name, values in traj.items()}
+        frames.append(drawer.draw(row, traj["target_xy_m"][max(0, i - span) : i + 1]))
     return frames
-
-
-def write_video(frames: Sequence[np.ndarray], path: str | os.PathLike, fps: int) -> Path:
-    """Write (H, W, 3) uint8 frames to ``path`` (``.gif`` or ``.mp4``) atomically.
-
-    The parent folder is created; the file appears only once complete (written to a
-    temporary file beside it, then renamed). Returns the path.
-    """
-    path = Path(path)
-    suffix = path.suffix.lower()
-    if suffix not in VIDEO_SUFFIXES:
-        raise ValueError(
-            f"cannot write video {str(path)!r}: use one of the suffixes {', '.join(VIDEO_SUFFIXES)}"
-        )
-    if not frames:
-        raise ValueError("no frames to write")
-    if fps <= 0:
-        raise ValueError(f"fps must be positive, got {fps}")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    # A fresh name beside the target (same file system, so os.replace is atomic); the
-    # writer creates it, so it gets the usual permissions rather than mkstemp's 0600.
-    tmp = str(path.parent / f".{path.stem}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp{suffix}")
-    try:
-        if suffix == ".gif":
-            _write_gif(frames, tmp, fps)
-        else:
-            _write_mp4(frames, tmp, fps)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
-
-
-def _write_gif(frames: Sequence[np.ndarray], path: str, fps: int) -> None:
-    import imageio.v3 as iio
-
-    # Pillow's GIF writer takes the frame duration in milliseconds; loop=0 repeats forever.
-    iio.imwrite(path, np.stack(frames), extension=".gif", duration=1000.0 / fps, loop=0)
-
-
-def _write_mp4(frames: Sequence[np.ndarray], path: str, fps: int) -> None:
-    import imageio_ffmpeg
-
-    h, w = frames[0].shape[:2]
-    writer = imageio_ffmpeg.write_frames(path, (w, h), fps=fps, codec="libx264",
-                                         pix_fmt_out="yuv420p", macro_block_size=2,
-                                         ffmpeg_log_level="error")  # fmt: skip
-    with warnings.catch_warnings():
-        # JAX warns on any fork; the ffmpeg subprocess execs at once and shares no threads.
-        warnings.filterwarnings("ignore", message="os.fork", category=RuntimeWarning)
-        writer.send(None)
-    for frame in frames:
-        writer.send(np.ascontiguousarray(frame))
-    writer.close()

@@ -20,7 +20,7 @@ from dyncatch.sim.state import EnvState, Obs
 
 ExtraFn = Callable[[EnvState, Obs], dict[str, jax.Array]]
 
-BUILTIN_KEYS = (
+STATE_KEYS = (
     "step",
     "time_s",
     "robot_xy_m",
@@ -33,30 +33,36 @@ BUILTIN_KEYS = (
     "visible",
     "ever_seen",
     "success",
-    "done",
 )
+"""The values of one state that the renderer draws (``state_row``; ``time_s`` on the host)."""
+BUILTIN_KEYS = (*STATE_KEYS, "done")
 
 
-def _snapshot(state: EnvState, done: jax.Array, extra_fn, obs: Obs) -> dict:
-    """The recorded values of one state (one row of the trajectory)."""
-    # Positions are stored relative to the robot (``sim.frame``); rows are in world
-    # coordinates.
+def state_row(state: EnvState) -> dict[str, jax.Array]:
+    """The drawn values of a state, every ``STATE_KEYS`` entry but ``time_s`` (which is
+    ``step * dt_s``, computed on the host in float64), positions in world coordinates (they
+    are stored relative to the robot, ``sim.frame``). Works on a batch too: each value then
+    has the state's leading axes, e.g. ``robot_xy_m`` (num_envs, 2)."""
     origin = state.origin_xy_m
     gripper = state.robot.gripper_xyz_m
-    row = {
+    return {
         "step": state.step,
         "robot_xy_m": state.robot.xy_m + origin,
         "robot_yaw_rad": state.robot.yaw_rad,
-        "robot_speed_mps": jnp.linalg.norm(state.robot.vel_body_mps),
-        "gripper_xyz_m": jnp.concatenate([gripper[:2] + origin, gripper[2:]]),
+        "robot_speed_mps": jnp.linalg.norm(state.robot.vel_body_mps, axis=-1),
+        "gripper_xyz_m": jnp.concatenate([gripper[..., :2] + origin, gripper[..., 2:]], axis=-1),
         "target_xy_m": state.target.xy_m + origin,
         "target_speed_mps": state.target.speed_mps,
         "obs_xy_m": state.sensor.obs_xy_m + origin,
         "visible": state.sensor.visible,
         "ever_seen": state.sensor.ever_seen,
         "success": state.success,
-        "done": done,
     }
+
+
+def _snapshot(state: EnvState, done: jax.Array, extra_fn, obs: Obs) -> dict:
+    """The recorded values of one state (one row of the trajectory)."""
+    row = {**state_row(state), "done": done}
     if extra_fn is not None:
         extra = extra_fn(state, obs)
         clash = sorted(set(extra) & set(BUILTIN_KEYS))
