@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 
 import dyncatch  # noqa: F401  (registers the gymnasium ids)
 from dyncatch.gym import CATCH_ID
-from dyncatch.gym.catch_env import CatchEnv, reset_flat, seed_to_key, step_flat
+from dyncatch.gym.catch_env import CatchEnv, seed_to_key
 from dyncatch.sim import env as sim_env
 from dyncatch.sim.api import obs_dim
 from dyncatch.sim.behaviors import BEHAVIORS
@@ -242,22 +242,20 @@ def random_world(w: WorldCfg, speed, arena_m, lag_s, gait_noise, cam_noise, late
 
 
 def random_command_obs(env: CatchEnv, seed: int, amplitude: float, hold: int, steps: int):
-    """Every observation (steps + resets, 17) of ``steps`` control steps under uniform random
-    commands in ``amplitude`` x the command box, each held ``hold`` steps, resetting after
-    each episode; through the adapter's jitted reset/step (no Python per-step overhead)."""
+    """Every observation (steps + resets, 17) of ``steps`` control steps of ``env`` under
+    uniform random commands in ``amplitude`` x the command box, each held ``hold`` steps,
+    resetting after each episode."""
     rng = np.random.default_rng(seed)
     low, high = env.action_space.low * amplitude, env.action_space.high * amplitude
-    state, obs = reset_flat(seed_to_key(seed), env.env)
-    seen = [obs]
+    seen = [env.reset(seed=seed)[0]]
     for t in range(steps):
         if t % hold == 0:
-            action = jnp.asarray(rng.uniform(low, high).astype(np.float32))
-        state, obs, _, info = step_flat(state, action, env.env)
+            action = rng.uniform(low, high).astype(np.float32)
+        obs, _, terminated, truncated, _ = env.step(action)
         seen.append(obs)
-        if info["terminated"] or info["truncated"]:
-            state, obs = reset_flat(seed_to_key(seed + t + 1), env.env)
-            seen.append(obs)
-    return np.stack(jax.device_get(seen))
+        if terminated or truncated:
+            seen.append(env.reset()[0])
+    return np.stack(seen)
 
 
 class TestObservationBounds:

@@ -75,11 +75,9 @@ def action_space(env: Environment) -> spaces.Box:
     return _box(env.action_spec)
 
 
-def check_same_spaces(
-    env: Environment, new_env: Environment, obs_space: spaces.Box, act_space: spaces.Box
-) -> None:
+def check_same_spaces(new_env: Environment, obs_space: spaces.Box, act_space: spaces.Box) -> None:
     """Raise ValueError if ``new_env`` (a world set by reset options) has other spaces than
-    the adapter declared for ``env``: spaces are fixed for an environment's lifetime."""
+    the adapter declared: spaces are fixed for an environment's lifetime."""
     for name, old, new in (
         ("observation", obs_space, observation_space(new_env)),
         ("action", act_space, action_space(new_env)),
@@ -218,7 +216,7 @@ class CatchEnv(gymnasium.Env[np.ndarray, np.ndarray]):
 
     def _set_env(self, env: Environment) -> None:
         """Step ``env`` from now on; refused if its spaces differ (they are fixed)."""
-        check_same_spaces(self.env, env, self.observation_space, self.action_space)
+        check_same_spaces(env, self.observation_space, self.action_space)
         self.env, self.world = env, env.world
         if self._frames is not None:
             self._frames.set_world(env.world)

@@ -124,9 +124,7 @@ class CatchVectorEnv(gymnasium.vector.VectorEnv):
         """
         if options:
             env = apply_reset_options(self.env, options, self.built_world)
-            check_same_spaces(
-                self.env, env, self.single_observation_space, self.single_action_space
-            )
+            check_same_spaces(env, self.single_observation_space, self.single_action_space)
             self.env, self.world = env, env.world
             if self._frames is not None:
                 self._frames.set_world(env.world)
