@@ -13,6 +13,7 @@ from dyncatch.evaluation.stats import summarize
 from dyncatch.gym.catch_env import CatchEnv
 from dyncatch.gym.vector_env import CatchVectorEnv
 from dyncatch.sim.config import EpisodeCfg, WorldCfg
+from dyncatch.sim.state import Obs
 
 NUM_ENVS = 4
 # 3 s episodes of a target standing still: some catches, some failures, and the envs that
@@ -20,9 +21,15 @@ NUM_ENVS = 4
 WORLD = WorldCfg(episode=EpisodeCfg(duration_s=3.0)).with_speed(0.0)
 
 
+_SIGHTING = sum(
+    size for name, size in Obs.layout()[: [n for n, _ in Obs.layout()].index("target_obs_body_m")]
+)
+"""Where target_obs_body_m starts in ``Obs.flat``."""
+
+
 def pursue(obs: np.ndarray) -> np.ndarray:
-    """Drive at the last sighting in the body frame (obs[:, 9:11]); spin while none."""
-    x, y = obs[:, 9], obs[:, 10]
+    """Drive at the last sighting in the body frame; spin while none."""
+    x, y = obs[:, _SIGHTING], obs[:, _SIGHTING + 1]
     unseen = np.hypot(x, y) < 1e-6
     yaw_rate = np.where(unseen, 2.0, np.clip(3.0 * np.arctan2(y, x), -2.0, 2.0))
     vx = np.where(unseen, 0.0, np.clip(2.0 * x, -1.0, 2.0))

@@ -17,6 +17,7 @@ import dyncatch  # noqa: F401  (registers the gymnasium ids)
 from dyncatch.gym import CATCH_ID, CATCH_VECTOR_ID
 from dyncatch.gym.vector_env import CatchVectorEnv
 from dyncatch.sim.config import EpisodeCfg, WorldCfg
+from dyncatch.sim.state import OBS_DIM
 
 SIZE_PX = 128
 NUM_ENVS = 4
@@ -117,7 +118,7 @@ class TestVectorContract:
         actions = np.tile(np.array([1.0, 0.3, -0.5], np.float32), (NUM_ENVS, 1))
         for env in envs:
             obs, info = env.reset(seed=0)
-            assert obs.shape == (NUM_ENVS, 17) and obs.dtype == np.float32 and info == {}
+            assert obs.shape == (NUM_ENVS, OBS_DIM) and obs.dtype == np.float32 and info == {}
         for t in range(1, EPISODE_STEPS + 1):
             out, ref_out = ours.step(actions), ref.step(actions)
             # obs float32, rewards float (the reference's float64, ours float32), flags bool.
@@ -129,8 +130,8 @@ class TestVectorContract:
             # Each environment's info holds the same keys with entries of the same shape.
             assert per_env(info, NUM_ENVS) == per_env(ref_info, NUM_ENVS), t
             # The reference keeps final_obs as an object array of per-env observations, and
-            # only on steps where an episode ended; ours is always a (num_envs, 17) array.
-            assert info["final_obs"].shape == (NUM_ENVS, 17)
+            # only on steps where an episode ended; ours is always a (num_envs, OBS_DIM) array.
+            assert info["final_obs"].shape == (NUM_ENVS, OBS_DIM)
             assert info["final_obs"].dtype == np.float32
             if t == EPISODE_STEPS:
                 np.testing.assert_array_equal(info["_final_obs"], True)

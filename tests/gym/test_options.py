@@ -32,6 +32,14 @@ class TestCatchEnvOptions:
         # Later episodes keep the world the options chose.
         np.testing.assert_array_equal(first_obs(env, 6), first_obs(built, 6))
 
+    def test_the_scene_option_gives_the_world_of_an_env_built_in_that_scene(self):
+        env = CatchEnv("reactive", speed_mps=1.8)
+        built = CatchEnv("reactive", world=env.world.with_scene("open_plane"), speed_mps=1.8)
+        got = first_obs(env, 2, options={"scene": "open_plane"})
+        np.testing.assert_array_equal(got, first_obs(built, 2))
+        assert env.world.scene.name == "open_plane"
+        assert env.observation_space == built.observation_space
+
     def test_speed_none_restores_the_built_range(self):
         env = CatchEnv("circle")
         built = (env.world.target.speed_min_mps, env.world.target.speed_max_mps)
@@ -51,7 +59,12 @@ class TestCatchEnvOptions:
     @pytest.mark.parametrize(
         ("options", "error", "named"),
         [
-            ({"scene": "forest"}, ValueError, r"'scene'.*allowed: 'behavior', 'speed_mps'"),
+            (
+                {"weather": "rain"},
+                ValueError,
+                r"'weather'.*allowed: 'scene', 'behavior', 'speed_mps'",
+            ),
+            ({"scene": "forest"}, ConfigError, r"unknown scene 'forest'"),
             ({"behavior": "zigzag"}, ConfigError, r"target.behavior: unknown behavior 'zigzag'"),
             ({"speed_mps": -1.0}, ConfigError, r"'speed_mps': -1.0.*speed_min_mps"),
             ({"speed_mps": "fast"}, ValueError, r"'speed_mps' must be a speed in m/s"),
@@ -75,7 +88,7 @@ def test_vector_env_options_match_a_vector_env_built_with_them():
     actions = np.tile(ACTION, (NUM_ENVS, 1))
     np.testing.assert_array_equal(venv.step(actions)[0], built.step(actions)[0])
     assert venv.world == built.world
-    with pytest.raises(ValueError, match="allowed: 'behavior', 'speed_mps'"):
+    with pytest.raises(ValueError, match="allowed: 'scene', 'behavior', 'speed_mps'"):
         venv.reset(options={"reset_mask": np.ones(NUM_ENVS, bool)})
 
 
@@ -92,12 +105,12 @@ class TestTheSeam:
         assert env.world.sensor.noise_m == 0.2
 
     def test_an_option_that_changes_the_observation_space_is_refused(self, monkeypatch):
-        def arena(world, value, built):
-            return world.replace(arena=world.arena.replace(size_m=float(value)))
+        def scan_range(world, value, built):
+            return world.replace(scene=world.scene.replace(scan_range_m=float(value)))
 
-        monkeypatch.setitem(gym_options.RESET_OPTIONS, "arena_m", arena)
+        monkeypatch.setitem(gym_options.RESET_OPTIONS, "scan_range_m", scan_range)
         env = CatchEnv()
         world = env.world
         with pytest.raises(ValueError, match="change the observation space.*gymnasium.make"):
-            env.reset(seed=0, options={"arena_m": 20.0})
+            env.reset(seed=0, options={"scan_range_m": 20.0})
         assert env.world is world

@@ -81,7 +81,8 @@ class TestCatchEnvRender:
         match[:, : int(left)] = match[:, int(right) + 1 :] = False
         rows, cols = np.nonzero(match)
         assert rows.size >= 4
-        expected = pixel_of(np.asarray(env.state.target.xy_m), env.world, size_px)
+        world_xy = env.state.target.xy_m + env.state.origin_xy_m  # stored relative to the robot
+        expected = pixel_of(np.asarray(world_xy), env.world, size_px)
         np.testing.assert_allclose([cols.mean(), rows.mean()], expected, atol=2.0)
 
     def test_no_render_mode_renders_nothing(self):

@@ -1,8 +1,8 @@
 """``reset(options=...)`` of the Gymnasium adapters: one handler per option name.
 
 Each handler maps the current world to the next one; the adapter validates the result and
-keeps it for this and every later episode. A new option (a ``scene``, say) is one more entry
-in ``RESET_OPTIONS``; an option whose world would change the observation or action space is
+keeps it for this and every later episode. A new option is one more entry in
+``RESET_OPTIONS``; an option whose world would change the observation or action space is
 refused by the adapter (such a world needs a new environment, as spaces are fixed).
 """
 
@@ -42,7 +42,20 @@ def _speed_mps(world: WorldCfg, value: Any, built: WorldCfg) -> WorldCfg:
     return world.with_speed(float(value))
 
 
-RESET_OPTIONS: dict[str, ResetOption] = {"behavior": _behavior, "speed_mps": _speed_mps}
+def _scene(world: WorldCfg, value: Any, built: WorldCfg) -> WorldCfg:
+    """A scene name (a key of ``dyncatch.sim.scenes.SCENES``); the scan keeps its rays, so
+    the observation space does not change."""
+    del built
+    if not isinstance(value, str):
+        raise ValueError(f"reset option 'scene' must be a scene name, got {value!r}")
+    return world.with_scene(value)
+
+
+RESET_OPTIONS: dict[str, ResetOption] = {
+    "scene": _scene,
+    "behavior": _behavior,
+    "speed_mps": _speed_mps,
+}
 """Option name -> handler, applied in this order whatever the order of the given dict."""
 
 

@@ -71,7 +71,9 @@ class StateFrames:
 
     def push(self, state) -> None:
         """Remember the target position of ``state``: (2,), or (num_envs, 2) for a batch."""
-        self._trail.append(np.asarray(state.target.xy_m, np.float64))
+        # Stored positions are relative to the robot (``sim.frame``); the trail is in world
+        # coordinates, as the drawn rows are.
+        self._trail.append(np.asarray(state.target.xy_m + state.origin_xy_m, np.float64))
 
     def _draw(self, row: dict, trail: np.ndarray) -> np.ndarray:
         if self._drawer is None:
