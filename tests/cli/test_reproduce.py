@@ -184,6 +184,8 @@ def test_the_throwaway_behaviour_steps_like_a_registered_one():
         cfg = WorldCfg().with_behavior("straight").with_speed(1.0)
         s = env.reset(jax.random.key(0), cfg)
         s2 = jax.jit(env.step)(s, jax.numpy.zeros(3), cfg)[0]
-        moved = float(jax.numpy.linalg.norm(s2.target.xy_m - s.target.xy_m))
+        # Stored positions are relative to the robot: compare world positions.
+        world = lambda st: st.target.xy_m + st.origin_xy_m  # noqa: E731
+        moved = float(jax.numpy.linalg.norm(world(s2) - world(s)))
         assert moved == pytest.approx(1.0 * 0.02, abs=1e-5)  # one 20 ms step at 1 m/s
     assert "straight" not in BEHAVIORS
