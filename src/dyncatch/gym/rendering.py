@@ -13,6 +13,7 @@ import jax
 import numpy as np
 
 from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.frame import to_world
 from dyncatch.viz.trajectory import state_row
 
 RENDER_MODES = ["rgb_array"]
@@ -73,7 +74,7 @@ class StateFrames:
         """Remember the target position of ``state``: (2,), or (num_envs, 2) for a batch."""
         # Stored positions are relative to the robot (``sim.frame``); the trail is in world
         # coordinates, as the drawn rows are.
-        self._trail.append(np.asarray(state.target.xy_m + state.origin_xy_m, np.float64))
+        self._trail.append(np.asarray(to_world(state, state.target.xy_m), np.float64))
 
     def _draw(self, row: dict, trail: np.ndarray) -> np.ndarray:
         if self._drawer is None:

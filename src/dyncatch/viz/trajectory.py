@@ -16,6 +16,7 @@ import numpy as np
 from dyncatch.policies.api import as_recurrent
 from dyncatch.sim.api import Environment, as_env
 from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.frame import to_world
 from dyncatch.sim.state import EnvState, Obs
 
 ExtraFn = Callable[[EnvState, Obs], dict[str, jax.Array]]
@@ -43,17 +44,18 @@ def state_row(state: EnvState) -> dict[str, jax.Array]:
     ``step * dt_s``, computed on the host in float64), positions in world coordinates (they
     are stored relative to the robot, ``sim.frame``). Works on a batch too: each value then
     has the state's leading axes, e.g. ``robot_xy_m`` (num_envs, 2)."""
-    origin = state.origin_xy_m
     gripper = state.robot.gripper_xyz_m
     return {
         "step": state.step,
-        "robot_xy_m": state.robot.xy_m + origin,
+        "robot_xy_m": to_world(state, state.robot.xy_m),
         "robot_yaw_rad": state.robot.yaw_rad,
         "robot_speed_mps": jnp.linalg.norm(state.robot.vel_body_mps, axis=-1),
-        "gripper_xyz_m": jnp.concatenate([gripper[..., :2] + origin, gripper[..., 2:]], axis=-1),
-        "target_xy_m": state.target.xy_m + origin,
+        "gripper_xyz_m": jnp.concatenate(
+            [to_world(state, gripper[..., :2]), gripper[..., 2:]], axis=-1
+        ),
+        "target_xy_m": to_world(state, state.target.xy_m),
         "target_speed_mps": state.target.speed_mps,
-        "obs_xy_m": state.sensor.obs_xy_m + origin,
+        "obs_xy_m": to_world(state, state.sensor.obs_xy_m),
         "visible": state.sensor.visible,
         "ever_seen": state.sensor.ever_seen,
         "success": state.success,
