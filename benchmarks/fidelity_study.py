@@ -24,14 +24,16 @@ from dyncatch.reproduce.readings import READINGS, setting_name
 
 SETTINGS = (
     (),
-    ("eq9_per_step",),
-    ("success_every_step",),
     ("legged_yaw",),
     ("legged_turning",),
     ("legged_yaw", "legged_turning"),
+    ("success_every_step",),
+    ("eq9_per_step",),
     ("paper_speeds",),
+    ("slow_tracking",),
 )
-"""One reading at a time against the default, plus the two agility readings together."""
+"""One reading at a time against the default, plus the two agility readings together; in
+the order they run, the agility readings first (the lead the walled-arena runs gave)."""
 SPEEDS = ("1.4", "1.6", "1.8")
 ORACLE = "gt_rl"
 NON_ORACLE = ("rl", "p_rl", "sp_rl", "sp_fp")

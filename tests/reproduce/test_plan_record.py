@@ -1,0 +1,42 @@
+"""Resuming a reproduction: the recorded plan.json against the plan asked for now."""
+
+import json
+
+import pytest
+
+from dyncatch.reproduce.plan import Plan
+from dyncatch.reproduce.stages import check_plan
+
+
+def _record(tmp_path, plan: Plan) -> dict:
+    check_plan(tmp_path, plan)
+    return json.loads((tmp_path / "plan.json").read_text())
+
+
+def test_a_field_added_since_at_its_default_resumes_and_is_recorded(tmp_path):
+    plan = Plan(seeds=2)
+    recorded = _record(tmp_path, plan)
+    del recorded["world"]["scene"]["scan_range_m"]  # as if the field came later
+    (tmp_path / "plan.json").write_text(json.dumps(recorded))
+    check_plan(tmp_path, plan)
+    assert json.loads((tmp_path / "plan.json").read_text()) == plan.to_json()
+
+
+def test_a_field_added_since_away_from_its_default_is_refused(tmp_path):
+    recorded = _record(tmp_path, Plan(seeds=2))
+    del recorded["world"]["scene"]["scan_range_m"]
+    (tmp_path / "plan.json").write_text(json.dumps(recorded))
+    world = Plan().world
+    moved = Plan(seeds=2, world=world.replace(scene=world.scene.replace(scan_range_m=4.0)))
+    with pytest.raises(ValueError, match=r"world\.scene\.scan_range_m \(None -> 4\.0\)"):
+        check_plan(tmp_path, moved)
+
+
+def test_a_changed_or_removed_field_is_refused(tmp_path):
+    recorded = _record(tmp_path, Plan(seeds=2))
+    with pytest.raises(ValueError, match=r"seeds \(2 -> 3\)"):
+        check_plan(tmp_path, Plan(seeds=3))
+    recorded["gone_field"] = 1
+    (tmp_path / "plan.json").write_text(json.dumps(recorded))
+    with pytest.raises(ValueError, match=r"gone_field \(1 -> None\)"):
+        check_plan(tmp_path, Plan(seeds=2))
