@@ -17,7 +17,10 @@ from dyncatch.sim.config import WorldCfg
 from dyncatch.viz.render import (
     FLOOR_COLOR,
     FOV_SEEN_COLOR,
+    ROBOT_COLOR,
     TARGET_COLOR,
+    VIRTUAL_COLOR,
+    follows_robot,
     frame_rows,
     pixel_of,
     render_frames,
@@ -26,7 +29,7 @@ from dyncatch.viz.render import (
 from dyncatch.viz.trajectory import catch_time_s, record_episode
 
 SPEED_MPS = 0.3
-CFG = WorldCfg().with_behavior("circle").with_speed(SPEED_MPS)
+CFG = WorldCfg().with_scene("arena").with_behavior("circle").with_speed(SPEED_MPS)
 POLICY = pursuit_policy(CFG)
 SIZE_PX = 240
 
@@ -133,6 +136,67 @@ class TestRenderFrames:
         assert seen, "the camera never saw the target"
         for frame in seen:
             assert (np.abs(frame.astype(float) - tint).max(axis=-1) <= 2).sum() > 100
+
+
+OPEN = WorldCfg().with_scene("open_plane").with_behavior("reactive").with_speed(1.8)
+
+
+def _colour_pixels(frame: np.ndarray, colour: str, tol: float = 12) -> np.ndarray:
+    return np.abs(frame.astype(float) - 255 * np.array(to_rgb(colour))).max(axis=-1) <= tol
+
+
+@pytest.fixture(scope="module")
+def chase():
+    traj = record_episode(pursuit_policy(OPEN), jax.random.PRNGKey(3), OPEN)
+    return traj, render_frames(traj, OPEN, every=50, size_px=SIZE_PX)
+
+
+class TestOpenPlaneView:
+    """On the open plane the view follows the robot; the virtual square is dashed, no wall."""
+
+    def test_only_unwalled_scenes_follow(self):
+        assert follows_robot(OPEN) and not follows_robot(CFG)
+        with pytest.raises(ValueError, match="robot_xy_m"):
+            pixel_of(np.zeros(2), OPEN, SIZE_PX)
+
+    def test_robot_stays_at_the_centre_and_the_target_where_it_is(self, chase):
+        traj, frames = chase
+        assert np.ptp(traj["robot_xy_m"], axis=0).max() > 8.0  # the robot went somewhere
+        centre = pixel_of(traj["robot_xy_m"][0], OPEN, SIZE_PX, traj["robot_xy_m"][0])
+        for row, frame in zip(frame_rows(len(traj["time_s"]), 50), frames, strict=True):
+            robot = pixel_of(traj["robot_xy_m"][row], OPEN, SIZE_PX, traj["robot_xy_m"][row])
+            np.testing.assert_allclose(robot, centre)
+            # The body: ROBOT_COLOR at alpha 0.9 over the floor (or the cone's faint tint).
+            tint = 255 * (0.9 * np.array(to_rgb(ROBOT_COLOR)) + 0.1 * np.array(to_rgb(FLOOR_COLOR)))
+            body = np.abs(frame.astype(float) - tint).max(axis=-1) <= 12
+            rows, cols = np.nonzero(body)
+            assert rows.size > 0
+            # The footprint (0.65 m long) lies around the centre.
+            assert np.abs([cols.mean() - centre[0], rows.mean() - centre[1]]).max() < 4
+            target = pixel_of(traj["target_xy_m"][row], OPEN, SIZE_PX, traj["robot_xy_m"][row])
+            inside = (target > 0.1 * SIZE_PX).all() and (target < 0.9 * SIZE_PX).all()
+            if not inside:
+                continue
+            match = _colour_pixels(frame, TARGET_COLOR)
+            match[int(0.9 * SIZE_PX) :] = False  # not the key's marker below
+            # At 1.8 m/s the trail behind the disc shares its hue: look around the disc.
+            c, r = np.round(target).astype(int)
+            assert match[r - 3 : r + 4, c - 3 : c + 4].sum() >= 12, f"row {row}: no disc there"
+            assert match.sum() < 4 * match[r - 6 : r + 7, c - 6 : c + 7].sum()
+
+    def test_no_wall_is_drawn_and_the_virtual_square_is_where_it_is(self, chase):
+        traj, frames = chase
+        wall = np.array(to_rgb("#333333")) * 255
+        first = frames[0]
+        assert (np.abs(first.astype(float) - wall).max(axis=-1) <= 6).sum() < 20
+        # The episode starts inside the square: its dashed sides (grey, darker than the grid
+        # drawn on the same world lines) show in the first frame where the corner puts them.
+        (c, r) = np.round(pixel_of(np.zeros(2), OPEN, SIZE_PX, traj["robot_xy_m"][0])).astype(int)
+        grey = (np.ptp(first.astype(int), axis=-1) <= 8) & (first.max(axis=-1) < 200)
+        lo, hi = int(0.1 * SIZE_PX), int(0.9 * SIZE_PX)  # the floor, not the bands
+        assert grey[lo:r, c - 1 : c + 2].any(axis=1).mean() > 0.25  # the left side, dashed (the cone tints some)
+        assert grey[r - 1 : r + 2, c:hi].any(axis=0).mean() > 0.25  # the bottom side
+        assert grey[lo:r, c + 8 : c + 11].any(axis=1).mean() < 0.1  # and nothing beside it
 
 
 class TestWriteVideo:

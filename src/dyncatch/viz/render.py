@@ -1,7 +1,10 @@
 """Top-down frames of one state or a recorded episode, and writing them as a GIF or MP4.
 
 ``TopDownDrawer`` owns one Agg figure (no pyplot, no global state) and draws one state from
-its values (a row of ``viz.trajectory.STATE_KEYS``); ``render_frames`` draws a recorded
+its values (a row of ``viz.trajectory.STATE_KEYS``). In a walled scene the view is the whole
+arena; where nothing bounds the chase (``Scene.walls`` false, the open plane) the view
+follows the robot: a window of ``arena.size_m`` centred on it, the 2 m grid and the bounce
+target's virtual square (dashed) sliding underneath; ``render_frames`` draws a recorded
 trajectory with it, and the Gymnasium adapters draw their current state with it. Each frame
 only moves the artists and redraws. Colours are fixed module constants so that tests can
 look for them in the pixels. ``write_video`` (from ``viz.video``) is re-exported here, where
@@ -21,11 +24,13 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Polygon, Rectangle, Wedge
 
 from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.scenes import get_scene
 from dyncatch.viz.video import VIDEO_SUFFIXES, write_video
 
 __all__ = [
     "VIDEO_SUFFIXES",
     "TopDownDrawer",
+    "follows_robot",
     "frame_rows",
     "pixel_of",
     "render_frames",
@@ -41,6 +46,8 @@ SEEN_COLOR = "#ff7f0e"
 PRED_COLOR = "#9467bd"
 FLOOR_COLOR = "#f4f4f0"
 WALL_COLOR = "#333333"
+VIRTUAL_COLOR = "#999999"
+"""The open plane's virtual square (only the bounce target reflects off it), dashed."""
 FOV_SEEN_COLOR = "#2ca02c"
 FOV_BLIND_COLOR = "#bcbd22"
 CAUGHT_COLOR = "#1a7f1a"
@@ -68,16 +75,56 @@ def _arrow(start: np.ndarray, vec: np.ndarray, width: float, head_len: float) ->
                      neck - 2.5 * w * n, neck - w * n, start - w * n])  # fmt: skip
 
 
+def follows_robot(cfg: WorldCfg) -> bool:
+    """The view follows the robot: nothing bounds the chase in this scene (no walls)."""
+    return not get_scene(cfg.scene.name).walls
+
+
+def floor_lo_m(cfg: WorldCfg) -> float:
+    """Lower edge, on both axes, of the floor square drawn (in view coordinates: world ones
+    in a walled scene, world minus the robot's position when the view follows it)."""
+    return -0.5 * cfg.arena.size_m if follows_robot(cfg) else 0.0
+
+
 def view_extent_m(cfg: WorldCfg) -> tuple[float, float]:
-    """Lower and upper world coordinate shown on both axes: the arena plus the text bands."""
-    return -_MARGIN_M - _BAND_M, cfg.arena.size_m + _MARGIN_M + _BAND_M
+    """Lower and upper view coordinate shown on both axes: the floor square (the arena, or
+    the window around the robot) plus the text bands."""
+    lo = floor_lo_m(cfg)
+    return lo - _MARGIN_M - _BAND_M, lo + cfg.arena.size_m + _MARGIN_M + _BAND_M
 
 
-def pixel_of(xy_m: np.ndarray, cfg: WorldCfg, size_px: int) -> np.ndarray:
-    """(column, row) pixel of world points (..., 2) in a frame of ``size_px``, row 0 on top."""
+def pixel_of(
+    xy_m: np.ndarray, cfg: WorldCfg, size_px: int, robot_xy_m: np.ndarray | None = None
+) -> np.ndarray:
+    """(column, row) pixel of world points (..., 2) in a frame of ``size_px``, row 0 on top.
+
+    ``robot_xy_m`` (2,) is the robot's world position in that frame; it is needed (and only
+    used) when the view follows the robot (``follows_robot``)."""
+    xy = np.asarray(xy_m, float)
+    if follows_robot(cfg):
+        if robot_xy_m is None:
+            raise ValueError(
+                f"the {cfg.scene.name} view follows the robot: pass robot_xy_m, the robot's "
+                "world position in that frame"
+            )
+        xy = xy - np.asarray(robot_xy_m, float)
     lo, hi = view_extent_m(cfg)
-    frac = (np.asarray(xy_m, float) - lo) / (hi - lo)
+    frac = (xy - lo) / (hi - lo)
     return np.stack([frac[..., 0] * size_px, (1.0 - frac[..., 1]) * size_px], axis=-1)
+
+
+def _grid_segments(lo: float, size: float, offset: np.ndarray, spacing: float) -> np.ndarray:
+    """Segments (K, 2, 2) of the world-aligned grid lines inside the floor square
+    ``[lo, lo + size]^2`` of view coordinates, where view = world - ``offset``."""
+    segs = []
+    for axis in (0, 1):
+        first = np.ceil((lo + offset[axis]) / spacing) * spacing - offset[axis]
+        for v in np.arange(first, lo + size, spacing):
+            if v <= lo + 1e-9:
+                continue
+            a, b = np.array([v, lo]), np.array([v, lo + size])
+            segs.append([a, b] if axis == 0 else [a[::-1], b[::-1]])
+    return np.asarray(segs, float).reshape(-1, 2, 2)
 
 
 def _footprint(xy: np.ndarray, yaw: float, length: float, width: float) -> np.ndarray:
@@ -96,9 +143,13 @@ class TopDownDrawer:
     """The figure and its moving artists for one world; ``draw`` renders one state.
 
     Args:
-        cfg: the world (arena, base and arm sizes, camera cone, control rate).
+        cfg: the world (scene, arena, base and arm sizes, camera cone, control rate).
         size_px: width and height of each frame in pixels (at least 64).
         with_pred: draw ``pred_vel_mps`` (and its key entry); rows must then carry it.
+
+    Where the view follows the robot (``follows_robot(cfg)``) every world point is drawn at
+    its offset from the robot, so the static layer stays fixed and only the grid and the
+    virtual square move with the other artists.
     """
 
     def __init__(self, cfg: WorldCfg, size_px: int = 480, with_pred: bool = False):
@@ -112,10 +163,23 @@ class TopDownDrawer:
         self.base_dims = (cfg.base.length_m, cfg.base.width_m)
         self.half_fov_deg = np.degrees(0.5 * cfg.sensor.fov_rad)
         self.trail_rgb = np.array(to_rgb(TARGET_COLOR))
+        self.follow = follows_robot(cfg)
+        self.floor_lo = floor_lo_m(cfg)
+        self.size_m = cfg.arena.size_m
         pt = size_px / 480.0  # markers and fonts scale with the frame
         ax = self.fig.add_axes((0.0, 0.0, 1.0, 1.0))
         arena = self._add_static(ax, cfg, pt, with_pred=with_pred)
         lo, hi = view_extent_m(cfg)
+        # On the open plane the grid and the virtual square slide under the robot.
+        self.grid = ax.add_collection(
+            LineCollection([], color="#dddddd", lw=0.6 * pt, zorder=0.5, visible=self.follow)
+        )
+        self.grid.set_clip_path(arena)
+        self.virtual = ax.add_patch(
+            Rectangle((0, 0), self.size_m, self.size_m, fill=False, ec=VIRTUAL_COLOR,
+                      ls="--", lw=1.2 * pt, zorder=0.6, visible=self.follow)
+        )  # fmt: skip
+        self.virtual.set_clip_path(arena)
 
         self.fov = ax.add_patch(Wedge((0, 0), cfg.sensor.range_m, 0, 0, lw=0, zorder=1))
         self.fov.set_clip_path(arena)  # the camera sees no farther than the walls
@@ -156,8 +220,8 @@ class TopDownDrawer:
             [], [], "o", color=TARGET_COLOR, mec="black", mew=0.6 * pt, ms=target_ms, zorder=7
         )
         self.text = ax.text(
-            0.0,
-            cfg.arena.size_m + _MARGIN_M + 0.5 * _BAND_M,
+            self.floor_lo,
+            self.floor_lo + cfg.arena.size_m + _MARGIN_M + 0.5 * _BAND_M,
             "",
             va="center",
             family="monospace",
@@ -167,8 +231,9 @@ class TopDownDrawer:
         # Blitting: the static layer (floor, walls, grid, key) is drawn once and restored
         # before each frame; only the moving artists are drawn again on top of it.
         self.moving = sorted(
-            [self.fov, self.reach, self.trail, self.heading, self.body, self.arm_line,
-             self.gripper, self.seen, self.pred, self.target, self.text],
+            [self.grid, self.virtual, self.fov, self.reach, self.trail, self.heading,
+             self.body, self.arm_line, self.gripper, self.seen, self.pred, self.target,
+             self.text],
             key=lambda a: a.get_zorder(),
         )  # fmt: skip
         for artist in self.moving:
@@ -178,19 +243,23 @@ class TopDownDrawer:
 
     @staticmethod
     def _add_static(ax, cfg: WorldCfg, pt: float, with_pred: bool) -> Rectangle:
-        """Floor, walls, a 2 m grid and the key; returns the arena patch (for clipping)."""
+        """Floor, walls (if the scene has them), a fixed 2 m grid (if the view is fixed) and
+        the key; returns the floor patch (for clipping)."""
         size = cfg.arena.size_m
-        # A square view: the arena, a band above it for the status line, one below for the key.
+        follow = follows_robot(cfg)
+        f0 = floor_lo_m(cfg)
+        # A square view: the floor, a band above it for the status line, one below for the key.
         lo, hi = view_extent_m(cfg)
         ax.set_xlim(lo, hi)
         ax.set_ylim(lo, hi)
         ax.set_aspect("equal")
         ax.set_axis_off()
-        arena = ax.add_patch(Rectangle((0, 0), size, size, fc=FLOOR_COLOR, ec=WALL_COLOR,
-                                       lw=3 * pt, zorder=0))  # fmt: skip
-        for v in np.arange(2.0, size, 2.0):
-            ax.plot([v, v], [0, size], color="#dddddd", lw=0.6 * pt, zorder=0.5)
-            ax.plot([0, size], [v, v], color="#dddddd", lw=0.6 * pt, zorder=0.5)
+        edge = {"ec": "none", "lw": 0} if follow else {"ec": WALL_COLOR, "lw": 3 * pt}
+        arena = ax.add_patch(Rectangle((f0, f0), size, size, fc=FLOOR_COLOR, zorder=0, **edge))
+        if not follow:
+            for v in np.arange(2.0, size, 2.0):
+                ax.plot([v, v], [0, size], color="#dddddd", lw=0.6 * pt, zorder=0.5)
+                ax.plot([0, size], [v, v], color="#dddddd", lw=0.6 * pt, zorder=0.5)
         key = [
             Line2D([], [], marker="s", ls="", color=ROBOT_COLOR, label="robot"),
             Line2D([], [], marker="o", ls="", color=TARGET_COLOR, mec="black", label="target"),
@@ -200,7 +269,7 @@ class TopDownDrawer:
         ]
         if with_pred:
             key.append(Line2D([], [], color=PRED_COLOR, lw=2, label="pred. vel (1 s)"))
-        ax.legend(handles=key, loc="center", bbox_to_anchor=(0.5 * size, lo + 0.5 * _BAND_M),
+        ax.legend(handles=key, loc="center", bbox_to_anchor=(f0 + 0.5 * size, lo + 0.5 * _BAND_M),
                   bbox_transform=ax.transData, ncol=len(key), frameon=False,
                   fontsize=7.5 * pt, handlelength=1.2, handletextpad=0.4, columnspacing=1.0,
                   borderaxespad=0.0)  # fmt: skip
@@ -220,8 +289,14 @@ class TopDownDrawer:
             trail_xy_m: the target's recent positions (K, 2), oldest first, ending with this
                 state's; at most ``trail_rows(cfg) + 1`` are meant to be given. None: no trail.
         """
-        xy = np.asarray(row["robot_xy_m"], float)
+        robot_world = np.asarray(row["robot_xy_m"], float)
+        # View coordinates: world ones, or offsets from the robot where the view follows it.
+        offset = robot_world if self.follow else np.zeros(2)
+        xy = robot_world - offset
         yaw = float(row["robot_yaw_rad"])
+        if self.follow:
+            self.grid.set_segments(_grid_segments(self.floor_lo, self.size_m, offset, 2.0))
+            self.virtual.set_xy(-offset)
         heading = np.array([np.cos(yaw), np.sin(yaw)])
         yaw_deg = np.degrees(yaw)
         visible = bool(row["visible"])
@@ -235,20 +310,20 @@ class TopDownDrawer:
         self.body.set_xy(_footprint(xy, yaw, *self.base_dims))
         nose = xy + 0.5 * self.base_dims[0] * heading
         self.heading.set_xy(_arrow(nose, _HEADING_LEN_M * heading, 0.05, 0.22))
-        grip = np.asarray(row["gripper_xyz_m"], float)[:2]
+        grip = np.asarray(row["gripper_xyz_m"], float)[:2] - offset
         mount = xy + self.mount_x * heading
         self.arm_line.set_data([mount[0], grip[0]], [mount[1], grip[1]])
         self.gripper.set_data([grip[0]], [grip[1]])
 
-        t_xy = np.asarray(row["target_xy_m"], float)
+        t_xy = np.asarray(row["target_xy_m"], float) - offset
         self.target.set_data([t_xy[0]], [t_xy[1]])
-        pts = np.zeros((0, 2)) if trail_xy_m is None else np.asarray(trail_xy_m, float)
+        pts = np.zeros((0, 2)) if trail_xy_m is None else np.asarray(trail_xy_m, float) - offset
         segments = np.stack([pts[:-1], pts[1:]], axis=1) if len(pts) > 1 else np.zeros((0, 2, 2))
         alpha = np.linspace(0.05, 0.8, len(segments))
         self.trail.set_segments(segments)
         self.trail.set_color(np.column_stack([np.tile(self.trail_rgb, (len(segments), 1)), alpha]))
         if row["ever_seen"]:
-            seen = np.asarray(row["obs_xy_m"], float)
+            seen = np.asarray(row["obs_xy_m"], float) - offset
             self.seen.set_data([seen[0]], [seen[1]])
         else:
             self.seen.set_data([], [])
@@ -287,7 +362,8 @@ def render_frames(
     """Top-down frames of a trajectory from ``record_episode``.
 
     Draws every ``every``-th row (and the last). Each frame is ``(size_px, size_px, 3)``
-    uint8 showing the arena, the robot footprint and heading, the camera cone (green while
+    uint8 showing the arena (or, where the view follows the robot, a window of the arena's
+    size around it with the virtual square dashed), the robot footprint and heading, the camera cone (green while
     the last frame saw the target), the arm's activation circle, the gripper, the target and
     its last 2 s, the held sighting (hollow ring), ``pred_vel_mps`` if recorded (an arrow of
     one second of motion) and a status line.
