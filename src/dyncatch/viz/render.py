@@ -363,10 +363,10 @@ def render_frames(
 
     Draws every ``every``-th row (and the last). Each frame is ``(size_px, size_px, 3)``
     uint8 showing the arena (or, where the view follows the robot, a window of the arena's
-    size around it with the virtual square dashed), the robot footprint and heading, the camera cone (green while
-    the last frame saw the target), the arm's activation circle, the gripper, the target and
-    its last 2 s, the held sighting (hollow ring), ``pred_vel_mps`` if recorded (an arrow of
-    one second of motion) and a status line.
+    size around it with the virtual square dashed), the robot footprint and heading, the
+    camera cone (green while the last frame saw the target), the arm's activation circle,
+    the gripper, the target and its last 2 s, the held sighting (hollow ring),
+    ``pred_vel_mps`` if recorded (an arrow of one second of motion) and a status line.
     """
     drawer = TopDownDrawer(cfg, size_px, with_pred="pred_vel_mps" in traj)
     span = trail_rows(cfg)
