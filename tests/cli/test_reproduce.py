@@ -83,6 +83,7 @@ def test_every_table_and_figure_is_written(quick):
 
 def test_results_json_agrees_with_an_independent_evaluation(quick, capsys):
     r = json.loads((quick / "results.json").read_text())
+    assert (r["scene"], r["setting"]) == (r["plan"]["world"]["scene"]["name"], "default")
     cells = r["table_i"]["cells"]
     assert {c["method"] for c in cells} == {*METHODS, *BASELINES}
     assert {c["behavior"] for c in cells} == {"straight"}

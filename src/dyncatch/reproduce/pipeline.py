@@ -124,6 +124,7 @@ def run(plan: Plan, command: str, log: Callable[[str], None], progress=None) -> 
     from dyncatch.reproduce.readings import setting_name
 
     results = {
+        "scene": plan.world.scene.name,
         "setting": setting_name(plan.setting),
         "command": command,
         "commit": _commit(),
@@ -149,7 +150,8 @@ def render_report(r: dict, plan: Plan) -> str:
     lines = [
         f"# dyncatch reproduction ({plan.profile} profile)",
         "",
-        f"- setting: `{r['setting']}` (readings of the paper, docs/fidelity.md)",
+        f"- scene: `{r['scene']}` (docs/model.md); setting: `{r['setting']}` (readings of "
+        "the paper, docs/fidelity.md)",
         f"- command: `{r['command']}`",
         f"- commit: `{r['commit']}`",
         f"- machine: {m['cpu']}, {m['cores']} cores, jax {m['jax']} ({m['backend']})",
