@@ -74,15 +74,17 @@ class TestCatchEnvRender:
         frame = env.render().astype(float)
         match = np.abs(frame - 255 * np.array(to_rgb(TARGET_COLOR))).max(axis=-1) <= 12
         size = env.world.arena.size_m
+        robot = np.asarray(env.state.origin_xy_m)  # the view follows the robot
+        half = 0.5 * size
         (left, top), (right, bottom) = pixel_of(
-            np.array([[0, size], [size, 0]]), env.world, size_px
+            robot + np.array([[-half, half], [half, -half]]), env.world, size_px, robot
         )
         match[: int(top)] = match[int(bottom) + 1 :] = False  # not the key's marker below
         match[:, : int(left)] = match[:, int(right) + 1 :] = False
         rows, cols = np.nonzero(match)
         assert rows.size >= 4
         world_xy = env.state.target.xy_m + env.state.origin_xy_m  # stored relative to the robot
-        expected = pixel_of(np.asarray(world_xy), env.world, size_px)
+        expected = pixel_of(np.asarray(world_xy), env.world, size_px, robot)
         np.testing.assert_allclose([cols.mean(), rows.mean()], expected, atol=2.0)
 
     def test_no_render_mode_renders_nothing(self):

@@ -21,13 +21,15 @@ SCAN = slice(7, 15)
 # 0.2 s at 50 Hz = 10 steps. duration_s is a traced leaf of the config, so both fixtures
 # share one compilation of the batched step, and the single-env reference below (CatchEnv's
 # jitted reset/step, an independent path without vmap or auto-reset) compiles once too.
-SHORT_WORLD = WorldCfg(episode=EpisodeCfg(duration_s=EPISODE_STEPS / 50))
+# The walled arena: its range scan tells starts (and episodes) apart in the observation.
+ARENA = WorldCfg().with_scene("arena")
+SHORT_WORLD = ARENA.replace(episode=EpisodeCfg(duration_s=EPISODE_STEPS / 50))
 ACTION = np.array([1.0, 0.3, -0.5], np.float32)
 
 
 @pytest.fixture(scope="module")
 def venv() -> CatchVectorEnv:
-    return CatchVectorEnv(num_envs=NUM_ENVS)
+    return CatchVectorEnv(num_envs=NUM_ENVS, world=ARENA)
 
 
 @pytest.fixture(scope="module")

@@ -12,7 +12,7 @@ from dyncatch.sim.env import catch_error_m
 
 from .helpers import random_rollout, world_xy
 
-CFG = WorldCfg()
+CFG = WorldCfg().with_scene("arena")
 
 
 @settings(max_examples=8, deadline=None)
@@ -28,7 +28,8 @@ def test_random_rollouts_keep_every_invariant(seed, behavior, speed):
     leaves = jax.tree.leaves((states.robot, states.target, states.sensor, infos, rewards))
     assert all(bool(jnp.all(jnp.isfinite(x))) for x in leaves if x.dtype != bool)
 
-    # The walls of the (default) arena scene stop both bodies, in world coordinates.
+    # The walls of the arena scene stop both bodies, in world coordinates (the open plane's
+    # invariants are in test_open_plane.py).
     assert cfg.scene.name == "arena"
     size = cfg.arena.size_m
     bodies = ((robot.xy_m, cfg.base.radius_m), (target.xy_m, cfg.target.radius_m))

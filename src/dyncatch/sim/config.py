@@ -30,9 +30,10 @@ class ArenaCfg:
 class SceneCfg:
     """Which scene (``dyncatch.sim.scenes.SCENES``) and the range scan s_env (eq. 3)."""
 
-    name: SceneName = static("arena")
-    """Scene, a key of ``dyncatch.sim.scenes.SCENES``: ``arena`` (walled) or ``open_plane``
-    (the paper's Table I); ``--scene`` on every command."""
+    name: SceneName = static("open_plane")
+    """Scene, a key of ``dyncatch.sim.scenes.SCENES``: ``open_plane`` (the paper's Table I
+    setting, the default since issue 12) or ``arena`` (walled 16 m square, the first
+    slice's world); ``--scene`` on every command."""
     scan_rays: int = static(8)
     """Rays of the range scan s_env, evenly spread around the base heading (first: ahead)."""
     scan_range_m: float = 10.0
