@@ -68,7 +68,7 @@ def run(plan: Plan, command: str, log: Callable[[str], None], progress=None) -> 
     log(f"stage 3/6: {plan.training_runs} training runs")
     stages.train_policies(plan, out, log, progress)
     log("stage 4/6: Table I evaluation")
-    t1_rows = stages.evaluate_grid(plan, out, "table_i", plan.behaviors, plan.speeds_mps, log)
+    t1_rows = stages.evaluate_grid(plan, out, "table_i", plan.table_i_rows, plan.speeds_mps, log)
     log("stage 5/6: Fig. 6 evaluation")
     behaviors = plan.fig6_columns
     fig6_rows = stages.evaluate_grid(plan, out, "fig6", behaviors, (plan.fig6_speed_mps,), log)
@@ -112,7 +112,7 @@ def run(plan: Plan, command: str, log: Callable[[str], None], progress=None) -> 
         figs / "fig6_high_speed.png",
         plan.fig6_speed_mps,
     )
-    report.plot_table_i(cells, plan.behaviors, figs / "table_i.png")
+    report.plot_table_i(cells, plan.table_i_rows, figs / "table_i.png")
 
     wall_path = out / "wall.json"
     previous = json.loads(wall_path.read_text())["total_s"] if wall_path.exists() else 0.0
@@ -171,9 +171,11 @@ def render_report(r: dict, plan: Plan) -> str:
         "",
     ]
     cells, averages = r["table_i"]["cells"], r["table_i"]["average"]
-    for behavior in plan.behaviors:
+    for behavior in plan.table_i_rows:
+        src = stages.source_behavior(plan, behavior)
         lines += [
-            f"## Table I: {behavior}",
+            f"## Table I: {behavior}"
+            + ("" if src == behavior else f" (policies trained on {src}: transfer)"),
             "",
             report.table_i_markdown(cells, averages, behavior, plan.speeds_mps),
             "",

@@ -39,6 +39,10 @@ class Plan:
     """Behaviours trained on (Table I rows, Fig. 5 panels)."""
     train_steps: int = 4_000_000
     """Environment steps per training run."""
+    table_i_behaviors: tuple[BehaviorName, ...] | None = None
+    """Rows of Table I (default: the behaviours trained on). One not trained on is evaluated
+    with the first trained behaviour's policies and predictors (transfer, as in Fig. 6);
+    ``trained_on`` in results.json says which."""
     speeds_mps: tuple[float, ...] = PAPER_SPEEDS_MPS
     """Table I columns (target speeds, m/s)."""
     episodes: int = 1000
@@ -78,6 +82,11 @@ class Plan:
         from dyncatch.predictor.table import all_behaviors
 
         return self.fig6_behaviors if self.fig6_behaviors is not None else all_behaviors()
+
+    @property
+    def table_i_rows(self) -> tuple[str, ...]:
+        """The behaviours of Table I."""
+        return self.table_i_behaviors if self.table_i_behaviors is not None else self.behaviors
 
     @property
     def table_ii_rows(self) -> tuple[str, ...]:
@@ -145,8 +154,8 @@ def estimate_s(plan: Plan) -> float:
 
     columns = plan.fig6_columns
     train = plan.training_runs * (plan.train_steps / EST_SAMPLES_PER_S + EST_COMPILE_S_PER_RUN)
-    policies = (len(METHODS) * plan.seeds + len(BASELINES)) * len(plan.behaviors)
-    cells = policies * len(plan.speeds_mps) + policies * len(columns) // len(plan.behaviors)
+    policies = len(METHODS) * plan.seeds + len(BASELINES)
+    cells = policies * (len(plan.speeds_mps) * len(plan.table_i_rows) + len(columns))
     evaluate = cells * (plan.episodes / 1000 * EST_EVAL_S_PER_1000_EPISODES + 1.0)
     pred_steps = len(predictor_kinds()) * len(plan.behaviors) * plan.predictor_steps
     pred_steps += len(all_kinds()) * len(plan.table_ii_rows) * max(plan.table_ii_budgets)
@@ -180,9 +189,15 @@ def validate_plan(plan: Plan) -> Plan:
             "--predictor-steps, --predictor-updates and --table-ii-budgets must be set"
         )
     validate_ppo(plan.ppo)
-    for name, value in (("fig6", plan.fig6_behaviors), ("table-ii", plan.table_ii_behaviors)):
+    named = (
+        ("table-i", plan.table_i_behaviors),
+        ("fig6", plan.fig6_behaviors),
+        ("table-ii", plan.table_ii_behaviors),
+    )
+    for name, value in named:
         if value is not None and not value:
             raise ValueError(f"--{name}-behaviors needs at least one behaviour (or leave it unset)")
-    for b in dict.fromkeys((*plan.behaviors, *plan.fig6_columns, *plan.table_ii_rows)):
+    rows = (*plan.behaviors, *plan.table_i_rows, *plan.fig6_columns, *plan.table_ii_rows)
+    for b in dict.fromkeys(rows):
         validate_world(plan.world.with_behavior(b))
     return plan
