@@ -18,6 +18,8 @@ import argparse
 import json
 from pathlib import Path
 
+import numpy as np
+
 from dyncatch.cli.main import main, parse
 from dyncatch.reproduce.aggregate import gap, time_gap
 from dyncatch.reproduce.plan import estimate_s
@@ -32,9 +34,11 @@ SETTINGS = (
     ("eq9_per_step",),
     ("paper_speeds",),
     ("slow_tracking",),
+    ("eq9_per_step", "success_every_step"),
 )
-"""One reading at a time against the default, plus the two agility readings together; in
-the order they run, the agility readings first (the lead the walled-arena runs gave)."""
+"""One reading at a time against the default; the two agility readings together; and eq. 8
+and 9 both read literally (every term paid each control step, eq. 8 as a state indicator).
+In the order they run: the agility readings first (the lead the walled-arena runs gave)."""
 SPEEDS = ("1.4", "1.6", "1.8")
 ORACLE = "gt_rl"
 NON_ORACLE = ("rl", "p_rl", "sp_rl", "sp_fp")
@@ -90,12 +94,70 @@ def _fmt(check: dict | None) -> str:
     return f"{check['difference']:+.3f} [{lo:+.3f}, {hi:+.3f}]"
 
 
+def _cell(c: dict | None) -> str:
+    if c is None:
+        return "-"
+    lo, hi = c["success_ci95"]
+    return f"{c['success_rate']:.2f} [{lo:.2f}, {hi:.2f}] / {c['catch_time_s']:.1f} s"
+
+
+def method_table(all_results: dict[str, dict], speed: float) -> list[str]:
+    """Success [95 % CI] / catch time of every method and baseline, per setting and behaviour,
+    at one speed."""
+    names = list(dict.fromkeys(c["method"] for r in all_results.values()
+                               for c in r["table_i"]["cells"]))  # fmt: skip
+    lines = [f"| setting | behaviour | {' | '.join(names)} |", "|---|---|" + "---|" * len(names)]
+    for name, r in all_results.items():
+        cells = r["table_i"]["cells"]
+        for behavior in dict.fromkeys(c["behavior"] for c in cells):
+            by = {c["method"]: c for c in cells
+                  if c["behavior"] == behavior and c["speed_mps"] == speed}  # fmt: skip
+            lines.append(f"| {name} | {behavior} | " + " | ".join(_cell(by.get(m)) for m in names)
+                         + " |")  # fmt: skip
+    return lines
+
+
+def plot_curves(out: Path, settings: list[str], path: Path) -> None:
+    """One panel per setting: the periodic evaluation's success at ``eval_speed_mps`` (1.8 m/s)
+    against environment steps, each trained method's seed mean with its seed range shaded."""
+    from matplotlib.figure import Figure
+
+    from dyncatch.reproduce.report import color, label, read_curve
+    from dyncatch.rl.methods import trained_methods
+
+    cols = min(4, len(settings))
+    rows = -(-len(settings) // cols)
+    fig = Figure(figsize=(4.0 * cols, 3.2 * rows), layout="constrained")
+    axes = fig.subplots(rows, cols, squeeze=False)
+    for ax, name in zip(axes.flat, settings, strict=False):
+        for method in trained_methods():
+            runs = sorted((out / name / "runs" / "reactive" / method).glob("seed*"))
+            curves = [read_curve(r) for r in runs if (r / "metrics.csv").exists()]
+            if not curves:
+                continue
+            n = min(len(c["eval_success_rate"]) for c in curves)
+            x = curves[0]["eval_env_steps"][:n] / 1e6
+            y = np.stack([c["eval_success_rate"][:n] for c in curves])
+            ax.plot(x, y.mean(0), color=color(method), label=label(method))
+            ax.fill_between(x, y.min(0), y.max(0), color=color(method), alpha=0.2, lw=0)
+        ax.set_title(name, fontsize=9)
+        ax.set_ylim(-0.02, 1.02)
+        ax.set_xlabel("env steps (M)")
+        ax.set_ylabel("success at 1.8 m/s (reactive)")
+        ax.grid(alpha=0.3)
+    for ax in list(axes.flat)[len(settings) :]:
+        ax.set_axis_off()
+    axes.flat[0].legend(fontsize=7)
+    fig.savefig(path, dpi=110)
+
+
 def summarize(out: Path) -> dict:
-    summary = {}
+    summary, all_results = {}, {}
     for setting in SETTINGS:
         path = out / setting_name(setting) / "results.json"
         if path.exists():
-            summary[setting_name(setting)] = verdicts(json.loads(path.read_text()))
+            all_results[setting_name(setting)] = json.loads(path.read_text())
+            summary[setting_name(setting)] = verdicts(all_results[setting_name(setting)])
     lines = [
         "| setting | behaviour | speed | best non-oracle | gt_rl gap: success | gt_rl gap: "
         "s saved | sp_rl - rl: success | sp_rl vs rl: s saved |",
@@ -108,8 +170,13 @@ def summarize(out: Path) -> dict:
                 f"{_fmt(r['oracle_gap_success'])} | {_fmt(r['oracle_gap_time'])} | "
                 f"{_fmt(r.get('sp_rl_vs_rl_success'))} | {_fmt(r.get('sp_rl_vs_rl_time'))} |"
             )
+    for speed in (1.8, 1.6, 1.4):
+        lines += ["", f"Every method at {speed} m/s (success [95 % CI] / catch time):", ""]
+        lines += method_table(all_results, speed)
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
     (out / "summary.md").write_text("\n".join(lines) + "\n")
+    if all_results:
+        plot_curves(out, list(all_results), out / "curves.png")
     return summary
 
 
