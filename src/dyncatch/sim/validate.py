@@ -67,6 +67,11 @@ def validate_world(cfg: WorldCfg) -> WorldCfg:
         ),
         (b.lag_s > 0, "base.lag_s", "must be positive"),
         (
+            b.max_lateral_accel_mps2 > 0 and b.max_yaw_accel_rps2 > 0,
+            "base.max_lateral_accel_mps2/max_yaw_accel_rps2",
+            "must be positive (inf: no limit)",
+        ),
+        (
             min(b.max_forward_mps, b.max_backward_mps, b.max_lateral_mps, b.max_yaw_rate_rps) >= 0,
             "base.max_*",
             "limits must be >= 0",
