@@ -1,7 +1,8 @@
 """Run every stage of a reproduction in order, then write the report.
 
 The stages are cached (``stages.py``), so this is also the resume path: re-running the
-same command skips what is finished and continues an interrupted training run.
+same command skips what is finished and continues an interrupted training run. Each
+stage's independent jobs run on the plan's executor (``executors.py``: here, or on Ray).
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from dyncatch.reproduce import aggregate, report, stages
+from dyncatch.reproduce import aggregate, executors, report, stages
 from dyncatch.reproduce.plan import Plan, estimate_s
 from dyncatch.rl.methods import METHODS, paper_claims, trained_methods
 
@@ -61,21 +62,28 @@ def run(plan: Plan, command: str, log: Callable[[str], None], progress=None) -> 
         "(finished stages are skipped)"
     )
 
-    log("stage 1/6: frozen predictors")
-    predictors = stages.train_predictors(plan, out, progress)
-    log("stage 2/6: Table II")
-    table_ii = stages.table_ii(plan, out)
-    log(f"stage 3/6: {plan.training_runs} training runs")
-    stages.train_policies(plan, out, log, progress)
-    log("stage 4/6: Table I evaluation")
-    t1_rows = stages.evaluate_grid(plan, out, "table_i", plan.table_i_rows, plan.speeds_mps, log)
-    log("stage 5/6: Fig. 6 evaluation")
-    behaviors = plan.fig6_columns
-    fig6_rows = stages.evaluate_grid(plan, out, "fig6", behaviors, (plan.fig6_speed_mps,), log)
-    clips = []
-    if plan.videos:
-        log("stage 6/6: videos")
-        clips = stages.record_videos(plan, out)
+    executor = executors.make_executor(plan, log, progress)
+    try:
+        log("stage 1/6: frozen predictors")
+        predictors = stages.train_predictors(plan, out, executor)
+        log("stage 2/6: Table II")
+        table_ii = stages.table_ii(plan, out, executor)
+        log(f"stage 3/6: {plan.training_runs} training runs")
+        stages.train_policies(plan, out, executor)
+        log("stage 4/6: Table I evaluation")
+        t1_rows = stages.evaluate_grid(
+            plan, out, "table_i", plan.table_i_rows, plan.speeds_mps, executor
+        )
+        log("stage 5/6: Fig. 6 evaluation")
+        behaviors = plan.fig6_columns
+        fig6_speeds = (plan.fig6_speed_mps,)
+        fig6_rows = stages.evaluate_grid(plan, out, "fig6", behaviors, fig6_speeds, executor)
+        clips = []
+        if plan.videos:
+            log("stage 6/6: videos")
+            clips = stages.record_videos(plan, out, executor)
+    finally:
+        executor.close()
 
     cells = aggregate.summarize_cells(t1_rows)
     averages = aggregate.average_column(cells)
