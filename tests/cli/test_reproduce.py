@@ -203,9 +203,9 @@ def test_executor_ray_without_ray_names_the_extra(tmp_path, monkeypatch, capsys)
 
 
 # Fields of results.json that differ between two runs of one plan by their nature: the
-# command line, the commit's dirty flag, the machine's load, and wall seconds (of the
-# whole reproduction, of a training run and of a predictor's training).
-UNEQUAL = ("command", "commit", "machine", "wall")
+# command line (--executor ray) and wall seconds (of the whole reproduction, of a training
+# run and of a predictor's training). Everything else, commit and machine included, is equal.
+UNEQUAL = ("command", "wall")
 
 
 def _comparable(results: dict) -> dict:
@@ -218,33 +218,10 @@ def _comparable(results: dict) -> dict:
 
 
 def _report_lines(path) -> list[str]:
-    skip = ("- command:", "- commit:", "- wall time:", "- machine:")
+    skip = ("- command:", "- wall time:")
     lines = [line for line in path.read_text().splitlines() if not line.startswith(skip)]
     # The Fig. 5 table's last three columns are wall seconds.
     return [line.rsplit("|", 4)[0] if line.startswith("| straight |") else line for line in lines]
-
-
-def test_a_ray_grid_gives_the_serial_report(quick, tmp_path):
-    """The tiny reproduction again on a local Ray (2 workers on the CI machine's 2 cores),
-    with one job of each kind left to do: a predictor, a training run, evaluation cells."""
-    from dyncatch.reproduce.stages import predictor_dir, run_dir
-
-    out = tmp_path / "ray"
-    shutil.copytree(quick, out)
-    shutil.rmtree(predictor_dir(out, "straight", "vanilla"))
-    shutil.rmtree(run_dir(out, "straight", "rl", 0))
-    shutil.rmtree(out / "eval" / "table_i")
-    for name in ("results.json", "report.md", "wall.json"):
-        (out / name).unlink()
-    with straight():
-        assert main(["reproduce", "--out", str(out), *TINY, "--executor", "ray"]) == 0
-    serial = json.loads((quick / "results.json").read_text())
-    ray = json.loads((out / "results.json").read_text())
-    assert _comparable(ray) == _comparable(serial)
-    assert _report_lines(out / "report.md") == _report_lines(quick / "report.md")
-    # The retrained run wrote what the serial one did: a checkpoint, logs and done marker.
-    for name in ("checkpoint.safetensors", "metrics.csv", "tb", "done.json"):
-        assert (run_dir(out, "straight", "rl", 0) / name).exists(), name
 
 
 def _dies_once(marker: str, progress=None) -> None:
@@ -262,19 +239,50 @@ def _raises(marker: str, progress=None) -> None:
     raise RuntimeError("a bug")
 
 
-def test_a_dead_ray_worker_is_retried_and_a_failing_job_keeps_the_others(tmp_path):
+@pytest.fixture(scope="module")
+def local_ray():
+    """A local Ray started by the executor (one worker per core: 2 on the CI machine), kept
+    for the module: the grid below reuses it instead of starting its own."""
     from dyncatch.reproduce.executors import RayExecutor
+
+    logs: list[str] = []
+    executor = RayExecutor(log=logs.append)
+    yield executor, logs
+    executor.close()
+
+
+def test_a_dead_ray_worker_is_retried_and_a_failing_job_keeps_the_others(local_ray, tmp_path):
     from dyncatch.reproduce.stages import Job
 
-    logs = []
-    executor = RayExecutor(log=logs.append)
-    try:
-        died, failed = str(tmp_path / "died"), str(tmp_path / "failed")
-        with pytest.raises(RuntimeError, match=r"(?s)1 job\(s\) failed.*raises: .*a bug"):
-            executor.run([Job("dies once", _dies_once, (died,)), Job("raises", _raises, (failed,))])
-        # The killed attempt was re-run to the end; the raising job ran once, not retried.
-        assert open(died).read() == "done"
-        assert open(failed).read() == "x"
-        assert "done: dies once" in logs and "failed: raises" in logs
-    finally:
-        executor.close()
+    executor, logs = local_ray
+    died, failed = str(tmp_path / "died"), str(tmp_path / "failed")
+    with pytest.raises(RuntimeError, match=r"(?s)1 job\(s\) failed.*raises: .*a bug"):
+        executor.run([Job("dies once", _dies_once, (died,)), Job("raises", _raises, (failed,))])
+    # The killed attempt was re-run to the end; the raising job ran once, not retried.
+    assert open(died).read() == "done"
+    assert open(failed).read() == "x"
+    assert "done: dies once" in logs and "failed: raises" in logs
+
+
+def test_a_ray_grid_gives_the_serial_report(quick, local_ray, tmp_path):
+    """The tiny reproduction again on the local Ray, with one job of each kind left to do:
+    a predictor, a training run, evaluation cells (one of them of the retrained run)."""
+    from dyncatch.reproduce.layout import cell_path, predictor_dir, run_dir
+
+    out = tmp_path / "ray"
+    shutil.copytree(quick, out)
+    shutil.rmtree(predictor_dir(out, "straight", "vanilla"))
+    shutil.rmtree(run_dir(out, "straight", "rl", 0))
+    for method, seed in (("rl", 0), ("pursuit", None)):
+        cell_path(out, "table_i", "straight", method, seed).unlink()
+    for name in ("results.json", "report.md", "wall.json"):
+        (out / name).unlink()
+    with straight():
+        assert main(["reproduce", "--out", str(out), *TINY, "--executor", "ray"]) == 0
+    serial = json.loads((quick / "results.json").read_text())
+    ray = json.loads((out / "results.json").read_text())
+    assert _comparable(ray) == _comparable(serial)
+    assert _report_lines(out / "report.md") == _report_lines(quick / "report.md")
+    # The retrained run wrote what the serial one did: a checkpoint, logs and done marker.
+    for name in ("checkpoint.safetensors", "metrics.csv", "tb", "done.json"):
+        assert (run_dir(out, "straight", "rl", 0) / name).exists(), name

@@ -4,8 +4,8 @@ import json
 
 import pytest
 
+from dyncatch.reproduce.layout import check_plan
 from dyncatch.reproduce.plan import Plan
-from dyncatch.reproduce.stages import check_plan
 
 
 def _record(tmp_path, plan: Plan) -> dict:

@@ -14,7 +14,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from dyncatch.reproduce import aggregate, executors, report, stages
+from dyncatch.reproduce import aggregate, executors, layout, report, stages
 from dyncatch.reproduce.plan import Plan, estimate_s
 from dyncatch.rl.methods import METHODS, paper_claims, trained_methods
 
@@ -56,7 +56,7 @@ def run(plan: Plan, command: str, log: Callable[[str], None], progress=None) -> 
         say(f"[{time.perf_counter() - t_start:6.0f} s] {msg}")
 
     out.mkdir(parents=True, exist_ok=True)
-    stages.check_plan(out, plan)
+    layout.check_plan(out, plan)
     log(
         f"estimated wall time for the whole plan on 2 cores: {estimate_s(plan) / 60:.0f} min "
         "(finished stages are skipped)"
@@ -126,7 +126,7 @@ def run(plan: Plan, command: str, log: Callable[[str], None], progress=None) -> 
     previous = json.loads(wall_path.read_text())["total_s"] if wall_path.exists() else 0.0
     this_s = time.perf_counter() - t_start
     wall = {"this_invocation_s": this_s, "total_s": previous + this_s}
-    stages.write_json(wall_path, wall)
+    layout.write_json(wall_path, wall)
 
     from dyncatch.bench.machine import machine_info
     from dyncatch.reproduce.readings import setting_name
@@ -147,7 +147,7 @@ def run(plan: Plan, command: str, log: Callable[[str], None], progress=None) -> 
         "training": training,
         "videos": clips,
     }
-    stages.write_json(out / "results.json", results)
+    layout.write_json(out / "results.json", results)
     (out / "report.md").write_text(render_report(results, plan))
     log(f"wrote {out / 'report.md'} and {out / 'results.json'} ({this_s / 60:.1f} min)")
     return results
@@ -180,7 +180,7 @@ def render_report(r: dict, plan: Plan) -> str:
     ]
     cells, averages = r["table_i"]["cells"], r["table_i"]["average"]
     for behavior in plan.table_i_rows:
-        src = stages.source_behavior(plan, behavior)
+        src = layout.source_behavior(plan, behavior)
         lines += [
             f"## Table I: {behavior}"
             + ("" if src == behavior else f" (policies trained on {src}: transfer)"),
@@ -225,7 +225,7 @@ def render_report(r: dict, plan: Plan) -> str:
         lines.append(
             f"| {t['behavior']} | {t['method']} | {t['seed']} | {final} | {s} | {w} | {total} |"
         )
-    src = ", ".join(f"{b} -> {stages.source_behavior(plan, b)}" for b in plan.fig6_columns)
+    src = ", ".join(f"{b} -> {layout.source_behavior(plan, b)}" for b in plan.fig6_columns)
     lines += [
         "",
         f"## Fig. 6: {plan.fig6_speed_mps} m/s on every behaviour",

@@ -1,16 +1,7 @@
-"""The stages of a reproduction. Each writes its result under the output folder and is
-skipped when that result exists, so an interrupted run loses nothing finished: training
-runs resume from their last checkpoint, evaluation cells are one small JSON file each.
-
-Layout under ``out``::
-
-    plan.json                              the plan (a different plan is refused)
-    predictors/{behavior}_{kind}/          frozen predictors of p_rl / sp_rl
-    table_ii/                              Table II (md, csv, png, json)
-    runs/{behavior}/{method}/seed{s}/      training runs (checkpoint, metrics.csv, tb/, done.json)
-    eval/table_i/{behavior}/{policy}.json  one evaluation cell list per policy
-    eval/fig6/{behavior}/{policy}.json
-    videos/{method}_{behavior}.gif         the filmed method (sp_rl)
+"""The stages of a reproduction. Each writes its result under the output folder
+(``layout.py``) and is skipped when that result exists, so an interrupted run loses nothing
+finished: training runs resume from their last checkpoint, evaluation cells are one small
+JSON file each.
 
 Each stage is a list of independent ``Job``s (one predictor, one seed group's training,
 one policy's evaluation cells, one video), built only for what is not finished, and run by
@@ -23,24 +14,21 @@ Methods, baselines, predictor kinds and behaviours all come from their registrie
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from dyncatch.reproduce.layout import (
+    cached,
+    cell_path,
+    predictor_dir,
+    predictor_path,
+    run_dir,
+    source_behavior,
+    write_json,
+)
 from dyncatch.reproduce.plan import Plan
 from dyncatch.rl.methods import METHODS, get_method, predictor_kinds, trained_methods
-from dyncatch.utils.config_io import config_diff
-
-
-def write_json(path: Path, obj) -> None:
-    """Atomic JSON write (a crash leaves the old file or none, never half of one)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    with os.fdopen(fd, "w") as f:
-        json.dump(obj, f, indent=2)
-    os.replace(tmp, path)
 
 
 @dataclass(frozen=True)
@@ -56,71 +44,6 @@ class Job:
 
     def __call__(self, progress=None) -> None:
         self.fn(*self.args, progress=progress)
-
-
-def cached(path: Path, compute: Callable[[], object]):
-    if path.exists():
-        return json.loads(path.read_text())
-    value = compute()
-    write_json(path, value)
-    return value
-
-
-def check_plan(out: Path, plan: Plan) -> None:
-    """Record the plan; refuse to mix the results of two different plans in one folder."""
-    path = out / "plan.json"
-    want = plan.to_json()
-    if path.exists():
-        have = json.loads(path.read_text())
-        if have != want:
-            diff = _real_diff(have, want)
-            if not diff:  # only fields added since, at their defaults: same results
-                write_json(path, want)
-                return
-            shown = ", ".join(f"{k} ({diff[k][0]} -> {diff[k][1]})" for k in list(diff)[:4])
-            more = f" and {len(diff) - 4} more" if len(diff) > 4 else ""
-            raise ValueError(
-                f"{out} holds a reproduction with other {shown}{more}; "
-                "re-run with the same flags to resume, or choose another --out"
-            )
-    else:
-        write_json(path, want)
-
-
-def _real_diff(have: dict, want: dict) -> dict:
-    """The differing fields, leaving out those the recorded plan lacks whose new value is
-    the field's default: a field added to the code later defaults to the behaviour the
-    code had before it existed (the repository's convention), so a cached study made
-    before it still holds. A field removed since, or one set away from its default, counts."""
-    from dyncatch.utils.config_io import flatten
-
-    defaults = flatten(Plan().to_json())
-    known = flatten(have)
-    return {
-        k: v
-        for k, v in config_diff(have, want).items()
-        if k in known or k not in defaults or v[1] != defaults[k]
-    }
-
-
-def predictor_dir(out: Path, behavior: str, kind: str) -> Path:
-    return out / "predictors" / f"{behavior}_{kind}"
-
-
-def predictor_path(out: Path, behavior: str, method: str) -> Path | None:
-    """The frozen predictor ``method`` reads for ``behavior``'s runs (None if it reads none)."""
-    kind = get_method(method).predictor_kind
-    return None if kind is None else predictor_dir(out, behavior, kind) / "predictor.safetensors"
-
-
-def run_dir(out: Path, behavior: str, method: str, seed: int) -> Path:
-    return out / "runs" / behavior / method / f"seed{seed}"
-
-
-def source_behavior(plan: Plan, behavior: str) -> str:
-    """Behaviour whose policies are evaluated on ``behavior`` (its own if trained on it,
-    else the first trained behaviour: Fig. 6's circle and bounce columns test transfer)."""
-    return behavior if behavior in plan.behaviors else plan.behaviors[0]
 
 
 def _predictor_train(plan: Plan):
@@ -262,14 +185,6 @@ def load_policy(plan: Plan, out: Path, behavior: str, name: str, seed: int | Non
     trained = METHODS[name].policy_source
     run = load_run(run_dir(out, src, trained, seed), name, predictor_path(out, src, name))
     return run.policy, run.world
-
-
-def cell_name(method: str, seed: int | None) -> str:
-    return method if seed is None else f"{method}_seed{seed}"
-
-
-def cell_path(out: Path, table: str, behavior: str, method: str, seed: int | None) -> Path:
-    return out / "eval" / table / behavior / f"{cell_name(method, seed)}.json"
 
 
 def _eval_job(
