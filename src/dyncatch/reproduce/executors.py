@@ -102,18 +102,27 @@ class RayExecutor:
 
         if not ray.is_initialized():
             local = self.address is None
-            ray.init(
-                address=self.address,
-                runtime_env={"env_vars": worker_env(local)},
-                # Jobs pass plans and paths, never arrays: a small local object store.
-                object_store_memory=_LOCAL_OBJECT_STORE_BYTES if local else None,
-                include_dashboard=False,
-                log_to_driver=False,
-                logging_level="ERROR",
-            )
+            try:
+                self._init(ray, local)
+            except ConnectionError as err:
+                raise ValueError(
+                    f"--ray-address {self.address}: no Ray cluster to join ({err}); start one "
+                    "with `ray start --head`, or leave --ray-address unset for a local Ray"
+                ) from None
             self._started = True
         self._remote = ray.remote(_run_on_worker).options(
             num_cpus=1, num_gpus=self.gpus_per_job, max_retries=self.max_retries
+        )
+
+    def _init(self, ray, local: bool) -> None:
+        ray.init(
+            address=self.address,
+            runtime_env={"env_vars": worker_env(local)},
+            # Jobs pass plans and paths, never arrays: a small local object store.
+            object_store_memory=_LOCAL_OBJECT_STORE_BYTES if local else None,
+            include_dashboard=False,
+            log_to_driver=False,
+            logging_level="ERROR",
         )
 
     def run(self, jobs: Sequence[Job]) -> None:
