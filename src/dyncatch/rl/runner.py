@@ -17,6 +17,7 @@ import time
 from pathlib import Path
 
 import jax
+from jax.sharding import Mesh
 
 from dyncatch.rl.config import PPOCfg, validate_ppo
 from dyncatch.rl.logging import MetricLog, validate_loggers
@@ -150,7 +151,7 @@ class TrainRunner:
     batch is split over (default every local device, ``dyncatch.rl.sharding``).
     """
 
-    def __init__(self, cfg: TrainRunCfg, env: Environment | None = None, mesh=None):
+    def __init__(self, cfg: TrainRunCfg, env: Environment | None = None, mesh: Mesh | None = None):
         from dyncatch.rl.sharding import batch_mesh, state_shardings, validate_mesh
         from dyncatch.sim.validate import validate_world
 

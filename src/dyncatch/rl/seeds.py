@@ -22,6 +22,7 @@ from itertools import groupby
 
 import jax
 import jax.numpy as jnp
+from jax.sharding import Mesh
 
 from dyncatch.rl.logging import MetricLog
 from dyncatch.rl.runner import TrainRunCfg, TrainRunner, eval_due
@@ -58,7 +59,12 @@ class SeedGroupRunner:
     ``learn`` returns each run's last metrics, in the order of ``cfgs``.
     """
 
-    def __init__(self, cfgs: Sequence[TrainRunCfg], env: Environment | None = None, mesh=None):
+    def __init__(
+        self,
+        cfgs: Sequence[TrainRunCfg],
+        env: Environment | None = None,
+        mesh: Mesh | None = None,
+    ):
         _check_group(cfgs)
         self.runners = [TrainRunner(c, env, mesh) for c in cfgs]
         first = self.runners[0]
