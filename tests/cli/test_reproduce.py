@@ -219,9 +219,15 @@ def _comparable(results: dict) -> dict:
 
 def _report_lines(path) -> list[str]:
     skip = ("- command:", "- wall time:")
-    lines = [line for line in path.read_text().splitlines() if not line.startswith(skip)]
-    # The Fig. 5 table's last three columns are wall seconds.
-    return [line.rsplit("|", 4)[0] if line.startswith("| straight |") else line for line in lines]
+    lines, section = [], ""
+    for line in path.read_text().splitlines():
+        section = line if line.startswith("## ") else section
+        if line.startswith(skip):
+            continue
+        # The Fig. 5 table's last three columns are wall seconds.
+        fig5_row = section.startswith("## Fig. 5") and line.startswith("| straight |")
+        lines.append(line.rsplit("|", 4)[0] if fig5_row else line)
+    return lines
 
 
 def _dies_once(marker: str, progress=None) -> None:
