@@ -155,6 +155,7 @@ def test_bad_flags_are_refused_naming_the_flag(tmp_path, capsys):
     for argv, needle in (
         (["--seeds", "0"], "--seeds"),
         (["--ray-address", "auto"], "--executor ray"),
+        (["--ray-workers", "2"], "--ray-workers"),
         (["--train-steps", "10"], "--train-steps"),
         (["--world.target.circle-radius-m", "20"], "circle_radius_m"),
     ):
@@ -247,12 +248,15 @@ def _raises(marker: str, progress=None) -> None:
 
 @pytest.fixture(scope="module")
 def local_ray():
-    """A local Ray started by the executor (one worker per core: 2 on the CI machine), kept
-    for the module: the grid below reuses it instead of starting its own."""
+    """A local Ray of 2 workers started by the executor, kept for the module: the grid
+    below reuses it instead of starting its own."""
+    import ray
+
     from dyncatch.reproduce.executors import RayExecutor
 
     logs: list[str] = []
-    executor = RayExecutor(log=logs.append)
+    executor = RayExecutor(workers=2, log=logs.append)
+    assert ray.cluster_resources()["CPU"] == 2
     yield executor, logs
     executor.close()
 

@@ -91,6 +91,8 @@ class RayExecutor:
     stages stay in order (each stage reads the files the one before wrote)."""
 
     address: str | None = None
+    workers: int | None = None
+    """Worker processes of a local Ray (default one per core); unused with ``address``."""
     gpus_per_job: float = 0.0
     log: Callable[[str], None] = print
     max_retries: int = 3
@@ -117,6 +119,7 @@ class RayExecutor:
     def _init(self, ray, local: bool) -> None:
         ray.init(
             address=self.address,
+            num_cpus=self.workers if local else None,
             runtime_env={"env_vars": worker_env(local)},
             # Jobs pass plans and paths, never arrays: a small local object store.
             object_store_memory=_LOCAL_OBJECT_STORE_BYTES if local else None,
@@ -162,6 +165,12 @@ def validate_executor(plan: Plan) -> None:
         raise ValueError(f"--executor {plan.executor}: choose from {', '.join(EXECUTORS)}")
     if plan.executor != "ray" and (plan.ray_address is not None or plan.ray_gpus_per_job):
         raise ValueError("--ray-address and --ray-gpus-per-job need --executor ray")
+    if plan.ray_workers is not None and (plan.executor != "ray" or plan.ray_address):
+        raise ValueError(
+            "--ray-workers sizes a local Ray: it needs --executor ray and no --ray-address"
+        )
+    if plan.ray_workers is not None and plan.ray_workers < 1:
+        raise ValueError(f"--ray-workers must be >= 1, got {plan.ray_workers}")
     if plan.ray_gpus_per_job < 0:
         raise ValueError(f"--ray-gpus-per-job must be >= 0, got {plan.ray_gpus_per_job}")
     if plan.executor == "ray":
@@ -173,7 +182,9 @@ def validate_executor(plan: Plan) -> None:
 
 EXECUTORS: dict[str, Callable[..., SerialExecutor | RayExecutor]] = {
     "serial": lambda plan, log, progress: SerialExecutor(log, progress),
-    "ray": lambda plan, log, progress: RayExecutor(plan.ray_address, plan.ray_gpus_per_job, log),
+    "ray": lambda plan, log, progress: RayExecutor(
+        plan.ray_address, plan.ray_workers, plan.ray_gpus_per_job, log
+    ),
 }
 """The executors of ``dyncatch reproduce --executor``: (plan, log, progress) -> executor."""
 

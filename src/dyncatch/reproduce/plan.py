@@ -74,6 +74,9 @@ class Plan:
     ray_address: str | None = None
     """With --executor ray: the Ray cluster to join (e.g. ray://head:10001 or auto); unset
     starts a local Ray on this machine's cores."""
+    ray_workers: int | None = None
+    """With --executor ray and no --ray-address: worker processes of the local Ray (default:
+    one per core; fewer leave cores to other work)."""
     ray_gpus_per_job: float = 0.0
     """With --executor ray: GPUs each job asks Ray for (e.g. 0.5 packs two jobs a GPU)."""
     ppo: PPOCfg = PPOCfg()
@@ -125,7 +128,7 @@ class Plan:
         return d
 
 
-NOT_RECORDED = ("out", "executor", "ray_address", "ray_gpus_per_job")
+NOT_RECORDED = ("out", "executor", "ray_address", "ray_workers", "ray_gpus_per_job")
 """Plan fields that do not shape the results, left out of plan.json."""
 
 
