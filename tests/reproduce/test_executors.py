@@ -41,3 +41,27 @@ def test_the_serial_executor_runs_each_job_in_order_and_logs_it(tmp_path):
     jobs = [Job(f"job {c}", _append, (out, c)) for c in "abc"]
     SerialExecutor(logs.append).run(jobs)
     assert out.read_text() == "abc" and logs == ["job a", "job b", "job c"]
+
+
+def _registered(path, name, progress=None):
+    from dyncatch.sim.behaviors import BEHAVIORS
+
+    Path(path).write_text(" ".join(sorted(BEHAVIORS)) if name in BEHAVIORS else "missing")
+
+
+def test_a_worker_runs_a_job_with_the_drivers_behaviours_then_restores_its_own(
+    tmp_path, monkeypatch
+):
+    from dyncatch.reproduce.executors import _run_on_worker
+    from dyncatch.sim.behaviors import BEHAVIORS
+    from tests.cli.test_reproduce import STRAIGHT
+
+    monkeypatch.chdir(tmp_path)  # restored after the test: the worker changes directory
+    driver_cwd = tmp_path / "driver"
+    driver_cwd.mkdir()
+    before = dict(BEHAVIORS)
+    out = tmp_path / "seen"
+    job = Job("sees straight", _registered, (str(out), "straight"))
+    _run_on_worker(job, {**BEHAVIORS, "straight": STRAIGHT}, str(driver_cwd))
+    assert out.read_text() == " ".join(sorted([*before, "straight"]))
+    assert BEHAVIORS == before and os.getcwd() == str(driver_cwd)

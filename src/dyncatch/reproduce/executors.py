@@ -79,7 +79,7 @@ def _run_on_worker(job: Job, behaviors: dict, cwd: str) -> None:
     setup_jax()
     with ExitStack() as stack:
         for name, behavior in behaviors.items():
-            if BEHAVIORS.get(name) is not behavior:
+            if BEHAVIORS.get(name) != behavior:  # equal: a built-in, sent by reference
                 stack.enter_context(registered_behavior(name, behavior, replace=True))
         job()
 
