@@ -69,3 +69,6 @@ def test_impossible_geometry_is_a_one_line_error(capsys):
     assert main(argv) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "num_minibatches" in err
+    assert main(["bench", "ppo", "--seeds", "0"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "--seeds" in err

@@ -3,6 +3,8 @@ independent evaluation, resume, refusals, and a behaviour registered at run time
 up in every table, figure and CLI choice with no other edit."""
 
 import json
+import os
+import shutil
 
 import jax
 import pytest
@@ -152,6 +154,8 @@ def test_a_behaviour_registered_at_run_time_is_a_cli_choice(capsys):
 def test_bad_flags_are_refused_naming_the_flag(tmp_path, capsys):
     for argv, needle in (
         (["--seeds", "0"], "--seeds"),
+        (["--ray-address", "auto"], "--executor ray"),
+        (["--ray-workers", "2"], "--ray-workers"),
         (["--train-steps", "10"], "--train-steps"),
         (["--world.target.circle-radius-m", "20"], "circle_radius_m"),
     ):
@@ -190,3 +194,105 @@ def test_the_throwaway_behaviour_steps_like_a_registered_one():
         moved = float(jax.numpy.linalg.norm(world(s2) - world(s)))
         assert moved == pytest.approx(1.0 * 0.02, abs=1e-5)  # one 20 ms step at 1 m/s
     assert "straight" not in BEHAVIORS
+
+
+def test_executor_ray_without_ray_names_the_extra(tmp_path, monkeypatch, capsys):
+    monkeypatch.setitem(__import__("sys").modules, "ray", None)  # import ray -> ImportError
+    assert main(["reproduce", "--quick", "--out", str(tmp_path / "x"), "--executor", "ray"]) == 2
+    err = capsys.readouterr().err
+    assert "dyncatch[ray]" in err and "--executor ray" in err, err
+
+
+# Fields of results.json that differ between two runs of one plan by their nature: the
+# command line (--executor ray) and wall seconds (of the whole reproduction, of a training
+# run and of a predictor's training). Everything else, commit and machine included, is equal.
+UNEQUAL = ("command", "wall")
+
+
+def _comparable(results: dict) -> dict:
+    r = {k: v for k, v in results.items() if k not in UNEQUAL}
+    r["training"] = [
+        {**t, "wall_s": None, "to_0.9": {**t["to_0.9"], "time_s": None}} for t in r["training"]
+    ]
+    r["predictors"] = [{**p, "seconds": None} for p in r["predictors"]]
+    return r
+
+
+def _report_lines(path) -> list[str]:
+    skip = ("- command:", "- wall time:")
+    lines, section = [], ""
+    for line in path.read_text().splitlines():
+        section = line if line.startswith("## ") else section
+        if line.startswith(skip):
+            continue
+        # The Fig. 5 table's last three columns are wall seconds.
+        fig5_row = section.startswith("## Fig. 5") and line.startswith("| straight |")
+        lines.append(line.rsplit("|", 4)[0] if fig5_row else line)
+    return lines
+
+
+def _dies_once(marker: str, progress=None) -> None:
+    """A job whose first attempt kills its worker process (as a lost node would)."""
+    if not os.path.exists(marker):
+        open(marker, "w").close()
+        os._exit(1)
+    with open(marker, "a") as f:
+        f.write("done")
+
+
+def _raises(marker: str, progress=None) -> None:
+    with open(marker, "a") as f:
+        f.write("x")
+    raise RuntimeError("a bug")
+
+
+@pytest.fixture(scope="module")
+def local_ray():
+    """A local Ray of 2 workers started by the executor, kept for the module: the grid
+    below reuses it instead of starting its own."""
+    import ray
+
+    from dyncatch.reproduce.executors import RayExecutor
+
+    logs: list[str] = []
+    executor = RayExecutor(workers=2, log=logs.append)
+    assert ray.cluster_resources()["CPU"] == 2
+    yield executor, logs
+    executor.close()
+
+
+def test_a_dead_ray_worker_is_retried_and_a_failing_job_keeps_the_others(local_ray, tmp_path):
+    from dyncatch.reproduce.stages import Job
+
+    executor, logs = local_ray
+    died, failed = str(tmp_path / "died"), str(tmp_path / "failed")
+    with pytest.raises(RuntimeError, match=r"(?s)1 job\(s\) failed.*raises: .*a bug"):
+        executor.run([Job("dies once", _dies_once, (died,)), Job("raises", _raises, (failed,))])
+    # The killed attempt was re-run to the end; the raising job ran once, not retried.
+    assert open(died).read() == "done"
+    assert open(failed).read() == "x"
+    assert "done: dies once" in logs and "failed: raises" in logs
+
+
+def test_a_ray_grid_gives_the_serial_report(quick, local_ray, tmp_path):
+    """The tiny reproduction again on the local Ray, with one job of each kind left to do:
+    a predictor, a training run, evaluation cells (one of them of the retrained run)."""
+    from dyncatch.reproduce.layout import cell_path, predictor_dir, run_dir
+
+    out = tmp_path / "ray"
+    shutil.copytree(quick, out)
+    shutil.rmtree(predictor_dir(out, "straight", "vanilla"))
+    shutil.rmtree(run_dir(out, "straight", "rl", 0))
+    for method, seed in (("rl", 0), ("pursuit", None)):
+        cell_path(out, "table_i", "straight", method, seed).unlink()
+    for name in ("results.json", "report.md", "wall.json"):
+        (out / name).unlink()
+    with straight():
+        assert main(["reproduce", "--out", str(out), *TINY, "--executor", "ray"]) == 0
+    serial = json.loads((quick / "results.json").read_text())
+    ray = json.loads((out / "results.json").read_text())
+    assert _comparable(ray) == _comparable(serial)
+    assert _report_lines(out / "report.md") == _report_lines(quick / "report.md")
+    # The retrained run wrote what the serial one did: a checkpoint, logs and done marker.
+    for name in ("checkpoint.safetensors", "metrics.csv", "tb", "done.json"):
+        assert (run_dir(out, "straight", "rl", 0) / name).exists(), name

@@ -4,8 +4,8 @@ import json
 
 import pytest
 
+from dyncatch.reproduce.layout import check_plan
 from dyncatch.reproduce.plan import Plan
-from dyncatch.reproduce.stages import check_plan
 
 
 def _record(tmp_path, plan: Plan) -> dict:
@@ -40,3 +40,13 @@ def test_a_changed_or_removed_field_is_refused(tmp_path):
     (tmp_path / "plan.json").write_text(json.dumps(recorded))
     with pytest.raises(ValueError, match=r"gone_field \(1 -> None\)"):
         check_plan(tmp_path, Plan(seeds=2))
+
+
+def test_who_runs_the_jobs_is_not_recorded_and_a_serial_folder_resumes_on_ray(tmp_path):
+    recorded = _record(tmp_path, Plan(seeds=2))
+    not_recorded = {"executor", "ray_address", "ray_workers", "ray_gpus_per_job", "out"}
+    assert not not_recorded & set(recorded)
+    assert recorded["vmap_seeds"] is True  # float-level differences: recorded
+    check_plan(tmp_path, Plan(seeds=2, executor="ray", ray_address="auto", ray_gpus_per_job=0.5))
+    with pytest.raises(ValueError, match=r"vmap_seeds \(True -> False\)"):
+        check_plan(tmp_path, Plan(seeds=2, vmap_seeds=False))

@@ -78,9 +78,14 @@ def largest_layer(obs_dim: int, ppo: PPOCfg) -> tuple[int, int]:
     return max(zip(sizes[:-1], sizes[1:], strict=False), key=lambda s: s[0] * s[1])
 
 
-def ppo_samples_per_s(init, iterate, ppo: PPOCfg, iterations: int, repeats: int = 3) -> float:
-    """Best of ``repeats`` timings of ``iterations`` compiled PPO iterations."""
-    ts = init(jax.random.key(0))
+def ppo_samples_per_s(
+    init, iterate, ppo: PPOCfg, iterations: int, repeats: int = 3, seeds: int = 1
+) -> float:
+    """Best of ``repeats`` timings of ``iterations`` compiled PPO iterations; with
+    ``seeds`` > 1, ``init``/``iterate`` are a seed group's (``vmap``-ped) and each iteration
+    counts ``seeds`` batches."""
+    key = jax.random.key(0)
+    ts = init(jax.random.split(key, seeds) if seeds > 1 else key)
     ts, m = iterate(ts)  # compile
     jax.block_until_ready(m)
     best = float("inf")
@@ -90,7 +95,24 @@ def ppo_samples_per_s(init, iterate, ppo: PPOCfg, iterations: int, repeats: int 
             ts, m = iterate(ts)
         jax.block_until_ready((ts, m))
         best = min(best, time.perf_counter() - t0)
-    return iterations * ppo.batch_size / best
+    return iterations * ppo.batch_size * seeds / best
+
+
+def compiled_train(env, ppo: PPOCfg, obs_fn, seeds: int = 1):
+    """The jitted ``init`` and ``iterate`` the runners use: the batch split over every local
+    device, and with ``seeds`` > 1 ``vmap``-ped over a leading seed axis."""
+    from dyncatch.rl.sharding import batch_mesh, state_shardings, validate_mesh
+    from dyncatch.rl.train import make_train
+
+    mesh = batch_mesh()
+    validate_mesh(ppo, mesh.size)
+    init, iterate, _ = make_train(env, ppo, obs_fn, mesh)
+    key = jax.random.key(0)
+    if seeds > 1:
+        init, iterate, key = jax.vmap(init), jax.vmap(iterate), jax.random.split(key, seeds)
+    sh = state_shardings(jax.eval_shape(init, key), mesh, env_axis=int(seeds > 1))
+    whole = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec())
+    return jax.jit(init, out_shardings=sh), jax.jit(iterate, out_shardings=(sh, whole))
 
 
 def run_ppo_benchmark(
@@ -101,13 +123,13 @@ def run_ppo_benchmark(
     iterations: int,
     predictor_flops: int = 0,
     peak_rows: tuple[int, ...] = PEAK_ROWS,
+    seeds: int = 1,
 ):
     """``env``: an environment (``dyncatch.sim.api``) or a world; the GEMM peak is the best
-    over ``peak_rows``."""
-    from dyncatch.rl.train import make_train
-
-    init, iterate, _ = make_train(env, ppo, obs_fn)
-    samples = ppo_samples_per_s(jax.jit(init), jax.jit(iterate), ppo, iterations)
+    over ``peak_rows``. ``seeds`` > 1 times a seed group (``dyncatch.rl.seeds``): samples/s
+    of all its seeds together."""
+    init, iterate = compiled_train(env, ppo, obs_fn, seeds)
+    samples = ppo_samples_per_s(init, iterate, ppo, iterations, seeds=seeds)
     flops = ppo_flops_per_sample(obs_dim, ppo, predictor_flops)
     k_in, k_out = largest_layer(obs_dim, ppo)
     # The largest layer, square in its widest dimension (the chain needs k_in == k_out).
@@ -124,4 +146,6 @@ def run_ppo_benchmark(
         "gemm_shape": [m_best, k, k],
         "gemm_gflops_by_rows": {str(m): r for m, r in rates.items()},
         "fraction_of_peak": achieved / peak,
+        "seeds": seeds,
+        "devices": jax.device_count(),
     }

@@ -64,6 +64,9 @@ class PPOBenchCmd:
     """Target behaviour."""
     iterations: int = 5
     """Timed iterations per repeat (best of 3 repeats; compilation excluded)."""
+    seeds: int = 1
+    """Seeds trained together as one vmap-ped computation (dyncatch train --seeds): samples/s
+    counts all of them, so the speed-up of a group is this over --seeds 1."""
     gemm_rows: tuple[int, ...] = PEAK_ROWS
     """Row counts at which the GEMM peak is measured (the peak is the best of them)."""
     json: bool = False
@@ -88,8 +91,10 @@ def run_ppo_bench(cmd: PPOBenchCmd) -> dict:
 
     world = validate_world(cmd.world.with_behavior(cmd.behavior))
     ppo = validate_ppo(cmd.ppo)
-    if cmd.iterations < 1:
-        raise ValueError(f"--iterations must be >= 1, got {cmd.iterations}")
+    if cmd.iterations < 1 or cmd.seeds < 1:
+        raise ValueError(
+            f"--iterations and --seeds must be >= 1, got {cmd.iterations} and {cmd.seeds}"
+        )
     if not cmd.gemm_rows or min(cmd.gemm_rows) < 1:
         raise ValueError(f"--gemm-rows must be positive row counts, got {cmd.gemm_rows}")
     method = get_method(cmd.method)
@@ -104,7 +109,9 @@ def run_ppo_bench(cmd: PPOBenchCmd) -> dict:
     env = JaxCatchEnv(world)
     state = env.reset(jax.random.key(0))
     obs_dim = int(obs_fn(state, env.observe(state)).shape[0])
-    result = run_ppo_benchmark(env, ppo, obs_fn, obs_dim, cmd.iterations, pred_flops, cmd.gemm_rows)
+    result = run_ppo_benchmark(
+        env, ppo, obs_fn, obs_dim, cmd.iterations, pred_flops, cmd.gemm_rows, cmd.seeds
+    )
     result.update(
         {
             "method": cmd.method,
@@ -132,6 +139,7 @@ def format_ppo_table(r: dict) -> str:
             "|---|---:|",
             f"| method | {r['method']} |",
             f"| batch (envs x steps) | {r['num_envs']} x {r['num_steps']} |",
+            f"| seeds in one jit, devices | {r['seeds']}, {r['devices']} |",
             f"| samples/s | {r['samples_per_s']:,.0f} |",
             f"| FLOPs/sample (rollout + update) | {f['rollout']:,} + {f['update']:,} |",
             f"| achieved GFLOP/s | {r['achieved_gflops']:.1f} |",

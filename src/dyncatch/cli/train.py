@@ -1,14 +1,15 @@
-"""``dyncatch train``: the flags are ``TrainRunCfg``; the runner lives in ``dyncatch.rl.runner``."""
+"""``dyncatch train``: the flags are ``TrainRunCfg``; the runners live in ``dyncatch.rl``
+(``--seeds S`` > 1 trains S seeds as one vmap-ped computation, ``dyncatch.rl.seeds``)."""
 
 from __future__ import annotations
 
 from dyncatch.rl.runner import TrainRunCfg
 
 
-def run_train(cfg: TrainRunCfg) -> dict:
+def run_train(cfg: TrainRunCfg) -> dict | list[dict]:
     from dyncatch.cli.progress import rich_progress
-    from dyncatch.rl.runner import TrainRunner
+    from dyncatch.rl.runner import make_runner
 
-    runner = TrainRunner(cfg)
+    runner = make_runner(cfg)
     with rich_progress() as progress:
         return runner.learn(progress)

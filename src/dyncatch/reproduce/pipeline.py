@@ -1,7 +1,8 @@
 """Run every stage of a reproduction in order, then write the report.
 
 The stages are cached (``stages.py``), so this is also the resume path: re-running the
-same command skips what is finished and continues an interrupted training run.
+same command skips what is finished and continues an interrupted training run. Each
+stage's independent jobs run on the plan's executor (``executors.py``: here, or on Ray).
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from dyncatch.reproduce import aggregate, report, stages
+from dyncatch.reproduce import aggregate, executors, layout, report, stages
 from dyncatch.reproduce.plan import Plan, estimate_s
 from dyncatch.rl.methods import METHODS, paper_claims, trained_methods
 
@@ -55,27 +56,34 @@ def run(plan: Plan, command: str, log: Callable[[str], None], progress=None) -> 
         say(f"[{time.perf_counter() - t_start:6.0f} s] {msg}")
 
     out.mkdir(parents=True, exist_ok=True)
-    stages.check_plan(out, plan)
+    layout.check_plan(out, plan)
     log(
         f"estimated wall time for the whole plan on 2 cores: {estimate_s(plan) / 60:.0f} min "
         "(finished stages are skipped)"
     )
 
-    log("stage 1/6: frozen predictors")
-    predictors = stages.train_predictors(plan, out, progress)
-    log("stage 2/6: Table II")
-    table_ii = stages.table_ii(plan, out)
-    log(f"stage 3/6: {plan.training_runs} training runs")
-    stages.train_policies(plan, out, log, progress)
-    log("stage 4/6: Table I evaluation")
-    t1_rows = stages.evaluate_grid(plan, out, "table_i", plan.table_i_rows, plan.speeds_mps, log)
-    log("stage 5/6: Fig. 6 evaluation")
-    behaviors = plan.fig6_columns
-    fig6_rows = stages.evaluate_grid(plan, out, "fig6", behaviors, (plan.fig6_speed_mps,), log)
-    clips = []
-    if plan.videos:
-        log("stage 6/6: videos")
-        clips = stages.record_videos(plan, out)
+    executor = executors.make_executor(plan, log, progress)
+    try:
+        log("stage 1/6: frozen predictors")
+        predictors = stages.train_predictors(plan, out, executor)
+        log("stage 2/6: Table II")
+        table_ii = stages.table_ii(plan, out, executor)
+        log(f"stage 3/6: {plan.training_runs} training runs")
+        stages.train_policies(plan, out, executor)
+        log("stage 4/6: Table I evaluation")
+        t1_rows = stages.evaluate_grid(
+            plan, out, "table_i", plan.table_i_rows, plan.speeds_mps, executor
+        )
+        log("stage 5/6: Fig. 6 evaluation")
+        behaviors = plan.fig6_columns
+        fig6_speeds = (plan.fig6_speed_mps,)
+        fig6_rows = stages.evaluate_grid(plan, out, "fig6", behaviors, fig6_speeds, executor)
+        clips = []
+        if plan.videos:
+            log("stage 6/6: videos")
+            clips = stages.record_videos(plan, out, executor)
+    finally:
+        executor.close()
 
     cells = aggregate.summarize_cells(t1_rows)
     averages = aggregate.average_column(cells)
@@ -118,7 +126,7 @@ def run(plan: Plan, command: str, log: Callable[[str], None], progress=None) -> 
     previous = json.loads(wall_path.read_text())["total_s"] if wall_path.exists() else 0.0
     this_s = time.perf_counter() - t_start
     wall = {"this_invocation_s": this_s, "total_s": previous + this_s}
-    stages.write_json(wall_path, wall)
+    layout.write_json(wall_path, wall)
 
     from dyncatch.bench.machine import machine_info
     from dyncatch.reproduce.readings import setting_name
@@ -139,7 +147,7 @@ def run(plan: Plan, command: str, log: Callable[[str], None], progress=None) -> 
         "training": training,
         "videos": clips,
     }
-    stages.write_json(out / "results.json", results)
+    layout.write_json(out / "results.json", results)
     (out / "report.md").write_text(render_report(results, plan))
     log(f"wrote {out / 'report.md'} and {out / 'results.json'} ({this_s / 60:.1f} min)")
     return results
@@ -172,7 +180,7 @@ def render_report(r: dict, plan: Plan) -> str:
     ]
     cells, averages = r["table_i"]["cells"], r["table_i"]["average"]
     for behavior in plan.table_i_rows:
-        src = stages.source_behavior(plan, behavior)
+        src = layout.source_behavior(plan, behavior)
         lines += [
             f"## Table I: {behavior}"
             + ("" if src == behavior else f" (policies trained on {src}: transfer)"),
@@ -217,7 +225,7 @@ def render_report(r: dict, plan: Plan) -> str:
         lines.append(
             f"| {t['behavior']} | {t['method']} | {t['seed']} | {final} | {s} | {w} | {total} |"
         )
-    src = ", ".join(f"{b} -> {stages.source_behavior(plan, b)}" for b in plan.fig6_columns)
+    src = ", ".join(f"{b} -> {layout.source_behavior(plan, b)}" for b in plan.fig6_columns)
     lines += [
         "",
         f"## Fig. 6: {plan.fig6_speed_mps} m/s on every behaviour",

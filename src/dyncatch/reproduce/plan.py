@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 from dyncatch.reproduce.paper import PAPER_SPEEDS_MPS
 from dyncatch.rl.config import PPOCfg
@@ -63,6 +64,21 @@ class Plan:
     """Rows of Table II (default: every registered behaviour)."""
     videos: bool = True
     """One GIF per behaviour of the filmed method's policy."""
+    vmap_seeds: bool = True
+    """Train a (method, behaviour)'s seeds as one vmap-ped computation (dyncatch.rl.seeds:
+    equal to separate runs to float tolerance); --no-vmap-seeds trains them one by one."""
+    executor: Literal["serial", "ray"] = "serial"
+    """Who runs each stage's independent jobs (predictors, training runs, evaluation cells,
+    videos): this process, or Ray tasks (dyncatch.reproduce.executors, docs/scaling.md).
+    The results are the same; it is not recorded in plan.json."""
+    ray_address: str | None = None
+    """With --executor ray: the Ray cluster to join (e.g. ray://head:10001 or auto); unset
+    starts a local Ray on this machine's cores."""
+    ray_workers: int | None = None
+    """With --executor ray and no --ray-address: worker processes of the local Ray (default:
+    one per core; fewer leave cores to other work)."""
+    ray_gpus_per_job: float = 0.0
+    """With --executor ray: GPUs each job asks Ray for (e.g. 0.5 packs two jobs a GPU)."""
     ppo: PPOCfg = PPOCfg()
     """PPO hyper-parameters and batch geometry of every run."""
     world: WorldCfg = WorldCfg()
@@ -102,12 +118,18 @@ class Plan:
         return len(trained_methods()) * len(self.behaviors) * self.seeds
 
     def to_json(self) -> dict:
-        """Everything that shapes the results (all fields but ``out``), as JSON values."""
+        """Everything that shapes the results (all fields but where they go and who runs
+        the jobs), as JSON values."""
         from dyncatch.utils.config_io import to_json
 
         d = to_json(self)
-        del d["out"]
+        for name in NOT_RECORDED:
+            del d[name]
         return d
+
+
+NOT_RECORDED = ("out", "executor", "ray_address", "ray_workers", "ray_gpus_per_job")
+"""Plan fields that do not shape the results, left out of plan.json."""
 
 
 PROFILES: dict[str, Plan] = {
@@ -172,6 +194,9 @@ def validate_plan(plan: Plan) -> Plan:
 
     if plan.seeds < 1:
         raise ValueError(f"--seeds must be >= 1, got {plan.seeds}")
+    from dyncatch.reproduce.executors import validate_executor
+
+    validate_executor(plan)
     if plan.train_steps < plan.ppo.batch_size:
         raise ValueError(
             f"--train-steps {plan.train_steps} is below one PPO batch ({plan.ppo.batch_size}); "

@@ -54,7 +54,7 @@ def smooth(x: np.ndarray, window: int = 5) -> np.ndarray:
 
 
 def curves(plan: Plan, out: Path) -> dict:
-    from dyncatch.reproduce.stages import run_dir
+    from dyncatch.reproduce.layout import run_dir
     from dyncatch.rl.methods import trained_methods
 
     result = {}

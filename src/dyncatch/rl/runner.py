@@ -4,7 +4,9 @@ evaluation and logs (rsl_rl's ``OnPolicyRunner`` is the model).
 ``TrainRunner(cfg).learn(progress)`` is the loop ``iterate -> log -> evaluate -> save``
 around the pure, jitted ``make_train``. Everything that touches files lives here; the CLI
 (``dyncatch train``) and the reproduction pipeline both call it and only attach a progress
-display.
+display. The state lives on every local device (``dyncatch.rl.sharding``): the environment
+batch and the PPO minibatches are split over them. ``dyncatch.rl.seeds.SeedGroupRunner``
+trains several seeds of one config as one ``vmap``-ped computation; ``make_runner`` picks.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ import time
 from pathlib import Path
 
 import jax
+from jax.sharding import Mesh
 
 from dyncatch.rl.config import PPOCfg, validate_ppo
 from dyncatch.rl.logging import MetricLog, validate_loggers
@@ -43,7 +46,11 @@ class TrainRunCfg:
     total_steps: int = 2_000_000
     """Environment steps to train for (rounded up to whole iterations)."""
     seed: int = 0
-    """Training seed."""
+    """Training seed (the first one with --seeds)."""
+    seeds: int = 1
+    """Seeds to train together as one vmap-ped computation: seed, seed + 1, ...; with more
+    than one, each seed's run goes to OUT/seed{s}/ (the same files as a one-seed run, which
+    it equals to float tolerance)."""
     out: Path = Path("runs/train")
     """Run folder: checkpoint.safetensors and the loggers' files (metrics.csv, tb/, wandb/)."""
     predictor: Path | None = None
@@ -83,7 +90,42 @@ def header_of(cfg: TrainRunCfg) -> dict:
     }
 
 
+def eval_due(cfg: TrainRunCfg, it: int, start: int, total_iters: int) -> bool:
+    """Whether iteration ``it`` (0-based) ends with an evaluation: every ``eval_every``,
+    the first of this invocation and the last."""
+    return bool(cfg.eval_every) and (
+        (it + 1) % cfg.eval_every == 0 or it == start or it + 1 == total_iters
+    )
+
+
+def seed_cfgs(cfg: TrainRunCfg) -> list[TrainRunCfg]:
+    """The one-seed runs ``cfg`` stands for: itself, or with ``--seeds S`` one per seed,
+    each in ``out/seed{s}``."""
+    if cfg.seeds < 1:
+        raise ValueError(f"--seeds must be >= 1, got {cfg.seeds}")
+    if cfg.seeds == 1:
+        return [cfg]
+    return [
+        dataclasses.replace(cfg, seed=s, seeds=1, out=cfg.out / f"seed{s}")
+        for s in range(cfg.seed, cfg.seed + cfg.seeds)
+    ]
+
+
+def make_runner(cfg: TrainRunCfg, env: Environment | None = None):
+    """A ``TrainRunner`` for one seed, a ``SeedGroupRunner`` for ``--seeds`` > 1."""
+    if cfg.seeds == 1:
+        return TrainRunner(cfg, env)
+    from dyncatch.rl.seeds import SeedGroupRunner
+
+    return SeedGroupRunner(seed_cfgs(cfg), env)
+
+
 def _validate(cfg: TrainRunCfg) -> None:
+    if cfg.seeds != 1:
+        raise ValueError(
+            f"one TrainRunner trains one seed (got --seeds {cfg.seeds}); "
+            "use make_runner or SeedGroupRunner"
+        )
     if cfg.total_steps < 1 or cfg.checkpoint_every < 1:
         raise ValueError("--total-steps and --checkpoint-every must be >= 1")
     if cfg.eval_every < 0 or cfg.eval_episodes < 1 or cfg.eval_speed_mps < 0:
@@ -105,10 +147,12 @@ class TrainRunner:
     """One training run: build it from a config, then ``learn``.
 
     ``env`` is the backend to train in (default the JAX world); the config's world is set
-    on it, so a second backend trains with no other change.
+    on it, so a second backend trains with no other change. ``mesh`` is the devices the
+    batch is split over (default every local device, ``dyncatch.rl.sharding``).
     """
 
-    def __init__(self, cfg: TrainRunCfg, env: Environment | None = None):
+    def __init__(self, cfg: TrainRunCfg, env: Environment | None = None, mesh: Mesh | None = None):
+        from dyncatch.rl.sharding import batch_mesh, state_shardings, validate_mesh
         from dyncatch.sim.validate import validate_world
 
         _validate(cfg)
@@ -122,8 +166,13 @@ class TrainRunner:
 
             predictor, params = load_predictor(cfg.predictor)
         self.obs_fn = get_method(cfg.method).obs_fn(predictor, params)
-        init, iterate, self.net = make_train(self.env, self.ppo, self.obs_fn)
-        self._init, self._iterate = jax.jit(init), jax.jit(iterate)
+        self.mesh = mesh if mesh is not None else batch_mesh()
+        validate_mesh(self.ppo, self.mesh.size)
+        init, iterate, self.net = make_train(self.env, self.ppo, self.obs_fn, self.mesh)
+        self.shardings = state_shardings(jax.eval_shape(init, jax.random.key(0)), self.mesh)
+        whole = jax.sharding.NamedSharding(self.mesh, jax.sharding.PartitionSpec())
+        self._init = jax.jit(init, out_shardings=self.shardings)
+        self._iterate = jax.jit(iterate, out_shardings=(self.shardings, whole))
         self.header = header_of(cfg)
         self.checkpoint = cfg.out / CHECKPOINT
 
@@ -137,7 +186,8 @@ class TrainRunner:
         """The checkpoint in ``out``; refused if it was trained with other settings."""
         from dyncatch.utils.tree_io import load_tree
 
-        ts, saved = load_tree(self.checkpoint, self._init(jax.random.key(self.cfg.seed)))
+        template = jax.eval_shape(self._init, jax.random.key(self.cfg.seed))
+        ts, saved = load_tree(self.checkpoint, template)
         want = json.loads(json.dumps(self.header))
         diff = [k for k in want if saved.get(k) != want[k]]
         if diff:
@@ -145,7 +195,7 @@ class TrainRunner:
                 f"{self.checkpoint} was trained with other {', '.join(diff)}; "
                 "resume with the same flags or choose another --out"
             )
-        return ts
+        return jax.device_put(ts, self.shardings)
 
     def initial_state(self) -> TrainState:
         """A fresh state, or the checkpoint's when resuming; never overwrites a run."""
@@ -201,9 +251,7 @@ class TrainRunner:
             ts, m = self._iterate(ts)
             metrics = {k: float(v) for k, v in jax.device_get(m).items()}
             metrics["time_s"] = time.perf_counter() - clock0
-            if cfg.eval_every and (
-                (it + 1) % cfg.eval_every == 0 or it == start or it + 1 == total_iters
-            ):
+            if eval_due(cfg, it, start, total_iters):
                 t_eval = time.perf_counter()
                 metrics.update(self.evaluate(ts))
                 clock0 += time.perf_counter() - t_eval

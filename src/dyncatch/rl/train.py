@@ -5,6 +5,11 @@ environments, GAE with time-out bootstrapping, then ``update_epochs`` x ``num_mi
 Adam steps with an adaptive-KL learning rate, all inside a single compiled function. The
 state is a pytree, so a run can be ``vmap``-ed over seeds. ``env`` is any backend of the
 environment protocol (``dyncatch.sim.api``); a ``WorldCfg`` means the JAX world.
+
+Given a ``jax.sharding.Mesh`` with a ``"batch"`` axis, the environment batch and the PPO
+minibatches are constrained to be split along it (data parallel: each device steps its
+share of the environments and computes its share of each gradient, averaged by XLA). The
+same code runs on one device or many; only float reduction order differs between them.
 """
 
 from __future__ import annotations
@@ -16,6 +21,7 @@ import jax
 import jax.numpy as jnp
 import optax
 from flax import struct
+from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from dyncatch.rl.config import PPOCfg
 from dyncatch.rl.gae import bootstrap_timeouts, gae
@@ -73,10 +79,32 @@ def to_command(action: jax.Array, env: Environment) -> jax.Array:
     return spec.low + (jnp.clip(action, -1.0, 1.0) + 1.0) * 0.5 * (spec.high - spec.low)
 
 
-def make_train(env: Environment | WorldCfg, ppo: PPOCfg, obs_fn: ObsFn = flat_obs):
+BATCH_AXIS = "batch"
+"""The mesh axis the environment batch and the PPO minibatches are split along."""
+
+
+def batch_constraint(mesh: Mesh | None) -> Callable[[jax.Array, int], jax.Array]:
+    """``constrain(x, axis)``: ``x`` split along ``axis`` over the mesh's batch axis (the
+    identity without a mesh). Inside ``vmap`` the mapped axis stays whole."""
+    if mesh is None:
+        return lambda x, axis: x
+
+    def constrain(x: jax.Array, axis: int) -> jax.Array:
+        spec = PartitionSpec(*([None] * axis), BATCH_AXIS)
+        return jax.lax.with_sharding_constraint(x, NamedSharding(mesh, spec))
+
+    return constrain
+
+
+def make_train(
+    env: Environment | WorldCfg, ppo: PPOCfg, obs_fn: ObsFn = flat_obs, mesh: Mesh | None = None
+):
     """Build the pure ``init(key) -> TrainState`` and ``iterate(TrainState) -> (TrainState,
-    metrics)`` for one method (``obs_fn`` decides what the policy sees)."""
+    metrics)`` for one method (``obs_fn`` decides what the policy sees). With ``mesh``, the
+    environment batch (``num_envs``) and each minibatch are split over its ``"batch"`` axis
+    (both sizes must divide by the number of devices; ``dyncatch.rl.sharding`` checks)."""
     env = as_env(env)
+    constrain = batch_constraint(mesh)
     net = ActorCritic(env.action_spec.shape[0], ppo.hidden_sizes, ppo.init_log_std)
     vobs = jax.vmap(obs_fn)
     optimizer = optax.chain(
@@ -104,7 +132,7 @@ def make_train(env: Environment | WorldCfg, ppo: PPOCfg, obs_fn: ObsFn = flat_ob
 
     def rollout(ts: TrainState):
         def step(carry, key):
-            env_state, obs = carry
+            env_state, obs = jax.tree.map(lambda x: constrain(x, 0), carry)
             x = vobs(env_state, obs)
             x_norm = ts.norm(x)
             mean, log_std, value = net.apply(ts.params, x_norm)
@@ -167,7 +195,9 @@ def make_train(env: Environment | WorldCfg, ppo: PPOCfg, obs_fn: ObsFn = flat_ob
         def epoch(carry, key):
             perm = jax.random.permutation(key, ppo.batch_size)
             shuffled = jax.tree.map(
-                lambda x: x[perm].reshape(ppo.num_minibatches, ppo.minibatch_size, *x.shape[1:]),
+                lambda x: constrain(
+                    x[perm].reshape(ppo.num_minibatches, ppo.minibatch_size, *x.shape[1:]), 1
+                ),
                 batch,
             )
             return jax.lax.scan(minibatch_step, carry, shuffled)

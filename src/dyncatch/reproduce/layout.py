@@ -1,0 +1,110 @@
+"""Where a reproduction keeps what it made, and the rules of that cache.
+
+Layout under ``out``::
+
+    plan.json                              the plan (a different plan is refused)
+    predictors/{behavior}_{kind}/          frozen predictors of p_rl / sp_rl
+    table_ii/                              Table II (md, csv, png, json)
+    runs/{behavior}/{method}/seed{s}/      training runs (checkpoint, metrics.csv, tb/, done.json)
+    eval/table_i/{behavior}/{policy}.json  one evaluation cell list per policy
+    eval/fig6/{behavior}/{policy}.json
+    videos/{method}_{behavior}.gif         the filmed method (sp_rl)
+
+Every file is written atomically (or, for a training run, finished by ``done.json``), so
+whoever wrote it (this process or a Ray worker) and whenever it was interrupted, a file
+that exists is whole.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+
+from dyncatch.reproduce.plan import Plan
+from dyncatch.rl.methods import get_method
+from dyncatch.utils.config_io import config_diff
+
+
+def write_json(path: Path, obj) -> None:
+    """Atomic JSON write (a crash leaves the old file or none, never half of one)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
+    with os.fdopen(fd, "w") as f:
+        json.dump(obj, f, indent=2)
+    os.replace(tmp, path)
+
+
+def cached(path: Path, compute: Callable[[], object]):
+    if path.exists():
+        return json.loads(path.read_text())
+    value = compute()
+    write_json(path, value)
+    return value
+
+
+def check_plan(out: Path, plan: Plan) -> None:
+    """Record the plan; refuse to mix the results of two different plans in one folder."""
+    path = out / "plan.json"
+    want = plan.to_json()
+    if path.exists():
+        have = json.loads(path.read_text())
+        if have != want:
+            diff = _real_diff(have, want)
+            if not diff:  # only fields added since, at their defaults: same results
+                write_json(path, want)
+                return
+            shown = ", ".join(f"{k} ({diff[k][0]} -> {diff[k][1]})" for k in list(diff)[:4])
+            more = f" and {len(diff) - 4} more" if len(diff) > 4 else ""
+            raise ValueError(
+                f"{out} holds a reproduction with other {shown}{more}; "
+                "re-run with the same flags to resume, or choose another --out"
+            )
+    else:
+        write_json(path, want)
+
+
+def _real_diff(have: dict, want: dict) -> dict:
+    """The differing fields, leaving out those the recorded plan lacks whose new value is
+    the field's default: a field added to the code later defaults to the behaviour the
+    code had before it existed (the repository's convention), so a cached study made
+    before it still holds. A field removed since, or one set away from its default, counts."""
+    from dyncatch.utils.config_io import flatten
+
+    defaults = flatten(Plan().to_json())
+    known = flatten(have)
+    return {
+        k: v
+        for k, v in config_diff(have, want).items()
+        if k in known or k not in defaults or v[1] != defaults[k]
+    }
+
+
+def predictor_dir(out: Path, behavior: str, kind: str) -> Path:
+    return out / "predictors" / f"{behavior}_{kind}"
+
+
+def predictor_path(out: Path, behavior: str, method: str) -> Path | None:
+    """The frozen predictor ``method`` reads for ``behavior``'s runs (None if it reads none)."""
+    kind = get_method(method).predictor_kind
+    return None if kind is None else predictor_dir(out, behavior, kind) / "predictor.safetensors"
+
+
+def run_dir(out: Path, behavior: str, method: str, seed: int) -> Path:
+    return out / "runs" / behavior / method / f"seed{seed}"
+
+
+def source_behavior(plan: Plan, behavior: str) -> str:
+    """Behaviour whose policies are evaluated on ``behavior`` (its own if trained on it,
+    else the first trained behaviour: Fig. 6's circle and bounce columns test transfer)."""
+    return behavior if behavior in plan.behaviors else plan.behaviors[0]
+
+
+def cell_name(method: str, seed: int | None) -> str:
+    return method if seed is None else f"{method}_seed{seed}"
+
+
+def cell_path(out: Path, table: str, behavior: str, method: str, seed: int | None) -> Path:
+    return out / "eval" / table / behavior / f"{cell_name(method, seed)}.json"

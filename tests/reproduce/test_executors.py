@@ -1,0 +1,67 @@
+"""What a Ray worker inherits from the driver, and the serial executor's order (no Ray
+started here: tests/cli/test_reproduce.py runs the real local Ray)."""
+
+import os
+import sys
+from pathlib import Path
+
+import jax
+
+from dyncatch.reproduce.executors import SerialExecutor, worker_env
+from dyncatch.reproduce.stages import Job
+
+
+def test_a_worker_gets_the_drivers_jax_settings_and_on_a_local_ray_its_path(monkeypatch):
+    monkeypatch.setenv("XLA_FLAGS", "--xla_cpu_multi_thread_eigen=true")
+    monkeypatch.setenv("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0.5")
+    monkeypatch.setenv("HOME_ONLY_VARIABLE", "x")
+    env = worker_env(local=True)
+    # The cache the driver uses (tests/conftest.py turned it on), as an absolute path.
+    cache = Path(env["JAX_COMPILATION_CACHE_DIR"])
+    assert cache.is_absolute() and cache == Path(jax.config.jax_compilation_cache_dir).resolve()
+    assert env["XLA_FLAGS"] == "--xla_cpu_multi_thread_eigen=true"
+    assert env["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"] == "0.5"
+    assert "HOME_ONLY_VARIABLE" not in env
+    path = env["PYTHONPATH"].split(os.pathsep)
+    # Among them the repository root pytest put there: the workers can import this test
+    # module's jobs and the behaviour tests/cli/test_reproduce.py registers at run time.
+    assert all(p in sys.path for p in path) and any(Path(p, "tests", "cli").is_dir() for p in path)
+    # A cluster's nodes have their own paths.
+    assert "PYTHONPATH" not in worker_env(local=False)
+
+
+def _append(path, item, progress=None):
+    with open(path, "a") as f:
+        f.write(item)
+
+
+def test_the_serial_executor_runs_each_job_in_order_and_logs_it(tmp_path):
+    logs = []
+    out = tmp_path / "order"
+    jobs = [Job(f"job {c}", _append, (out, c)) for c in "abc"]
+    SerialExecutor(logs.append).run(jobs)
+    assert out.read_text() == "abc" and logs == ["job a", "job b", "job c"]
+
+
+def _registered(path, name, progress=None):
+    from dyncatch.sim.behaviors import BEHAVIORS
+
+    Path(path).write_text(" ".join(sorted(BEHAVIORS)) if name in BEHAVIORS else "missing")
+
+
+def test_a_worker_runs_a_job_with_the_drivers_behaviours_then_restores_its_own(
+    tmp_path, monkeypatch
+):
+    from dyncatch.reproduce.executors import _run_on_worker
+    from dyncatch.sim.behaviors import BEHAVIORS
+    from tests.cli.test_reproduce import STRAIGHT
+
+    monkeypatch.chdir(tmp_path)  # restored after the test: the worker changes directory
+    driver_cwd = tmp_path / "driver"
+    driver_cwd.mkdir()
+    before = dict(BEHAVIORS)
+    out = tmp_path / "seen"
+    job = Job("sees straight", _registered, (str(out), "straight"))
+    _run_on_worker(job, {**BEHAVIORS, "straight": STRAIGHT}, str(driver_cwd))
+    assert out.read_text() == " ".join(sorted([*before, "straight"]))
+    assert BEHAVIORS == before and os.getcwd() == str(driver_cwd)

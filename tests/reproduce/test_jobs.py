@@ -1,0 +1,76 @@
+"""The jobs a stage hands its executor: only what is unfinished, seeds grouped for one
+vmap-ped run unless ``--no-vmap-seeds``, and nothing at all when everything is done."""
+
+import json
+
+import pytest
+
+from dyncatch.reproduce.layout import cell_path, run_dir
+from dyncatch.reproduce.plan import Plan
+from dyncatch.reproduce.stages import _train_job, evaluate_grid, policies, train_policies
+from dyncatch.rl.methods import trained_methods
+
+
+class Recorder:
+    """An executor that only records the jobs it is given."""
+
+    def __init__(self):
+        self.jobs = []
+
+    def run(self, jobs):
+        self.jobs += list(jobs)
+
+
+def _finish(out, behavior, method, seed):
+    d = run_dir(out, behavior, method, seed)
+    d.mkdir(parents=True)
+    (d / "done.json").write_text("{}")
+
+
+def test_unfinished_seeds_of_a_method_are_one_group(tmp_path):
+    plan = Plan(seeds=3, behaviors=("reactive",))
+    first, *others = trained_methods()
+    _finish(tmp_path, "reactive", first, 1)
+    ex = Recorder()
+    train_policies(plan, tmp_path, ex)
+    assert [j.args[2:] for j in ex.jobs] == [
+        ("reactive", first, (0, 2)),
+        *(("reactive", m, (0, 1, 2)) for m in others),
+    ]
+    assert all(j.fn is _train_job for j in ex.jobs)
+    assert ex.jobs[0].name == f"train {first} on reactive, seeds 0, 2"
+
+
+def test_without_vmap_seeds_each_seed_is_its_own_job(tmp_path):
+    plan = Plan(seeds=2, behaviors=("reactive",), vmap_seeds=False)
+    ex = Recorder()
+    train_policies(plan, tmp_path, ex)
+    assert [j.args[4] for j in ex.jobs] == [(0,), (1,)] * len(trained_methods())
+
+
+def test_finished_work_makes_no_job_and_is_read_back(tmp_path):
+    plan = Plan(seeds=1, behaviors=("reactive",))
+    for m in trained_methods():
+        _finish(tmp_path, "reactive", m, 0)
+    ex = Recorder()
+    train_policies(plan, tmp_path, ex)
+    assert ex.jobs == []
+    # Evaluation: one cell list missing -> one job; the rest is read from the files.
+    rows = {}
+    for method, seed in policies(plan):
+        row = {"method": method, "speed_mps": 1.0, "success_rate": 0.5}
+        rows[method] = row
+        path = cell_path(tmp_path, "fig6", "reactive", method, seed)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps([row]))
+    missing = cell_path(tmp_path, "fig6", "reactive", "pursuit", None)
+    missing.unlink()
+    with pytest.raises(FileNotFoundError):  # the recorder ran nothing: still missing
+        evaluate_grid(plan, tmp_path, "fig6", ("reactive",), (1.0,), ex)
+    assert [j.name for j in ex.jobs] == ["fig6: pursuit on reactive"]
+    missing.write_text(json.dumps([rows["pursuit"]]))
+    ex.jobs.clear()
+    got = evaluate_grid(plan, tmp_path, "fig6", ("reactive",), (1.0,), ex)
+    assert ex.jobs == []
+    assert [r["method"] for r in got] == [m for m, _ in policies(plan)]
+    assert {r["trained_on"] for r in got} == {"reactive"}
