@@ -53,6 +53,8 @@ def study_argv(out: Path, setting: tuple[str, ...], args) -> list[str]:
     argv += ["--behaviors", "reactive", "--table-i-behaviors", "reactive", "random_reactive"]
     argv += ["--fig6-behaviors", "reactive", "--table-ii-behaviors", "reactive"]
     argv += ["--table-ii-budgets", "2000000", "--no-videos"]
+    # Seeds one by one, as the study's first settings were trained (before seed groups).
+    argv += ["--no-vmap-seeds"]
     if setting:
         argv += ["--setting", *setting]
     return argv + list(args.world_flags)

@@ -50,3 +50,13 @@ def test_who_runs_the_jobs_is_not_recorded_and_a_serial_folder_resumes_on_ray(tm
     check_plan(tmp_path, Plan(seeds=2, executor="ray", ray_address="auto", ray_gpus_per_job=0.5))
     with pytest.raises(ValueError, match=r"vmap_seeds \(True -> False\)"):
         check_plan(tmp_path, Plan(seeds=2, vmap_seeds=False))
+
+
+def test_a_plan_recorded_before_vmap_seeds_resumes_only_one_seed_at_a_time(tmp_path):
+    recorded = _record(tmp_path, Plan(seeds=2))
+    del recorded["vmap_seeds"]  # recorded before the field: its seeds were trained one by one
+    (tmp_path / "plan.json").write_text(json.dumps(recorded))
+    with pytest.raises(ValueError, match=r"vmap_seeds \(None -> True\)"):
+        check_plan(tmp_path, Plan(seeds=2))
+    check_plan(tmp_path, Plan(seeds=2, vmap_seeds=False))
+    assert json.loads((tmp_path / "plan.json").read_text())["vmap_seeds"] is False

@@ -66,14 +66,21 @@ def check_plan(out: Path, plan: Plan) -> None:
         write_json(path, want)
 
 
+LEGACY_VALUES: dict[str, object] = {"vmap_seeds": False}
+"""Plan fields added after plans were recorded whose default is not what the code did
+before them, mapped to the value that is: plans recorded before ``vmap_seeds`` trained
+their seeds one by one."""
+
+
 def _real_diff(have: dict, want: dict) -> dict:
     """The differing fields, leaving out those the recorded plan lacks whose new value is
-    the field's default: a field added to the code later defaults to the behaviour the
-    code had before it existed (the repository's convention), so a cached study made
-    before it still holds. A field removed since, or one set away from its default, counts."""
+    what the code did before the field existed: its ``LEGACY_VALUES`` entry, else its
+    default (a field added later defaults to the old behaviour unless listed there). So a
+    cached study made before it still holds. A field removed since, or one set to another
+    value, counts."""
     from dyncatch.utils.config_io import flatten
 
-    defaults = flatten(Plan().to_json())
+    defaults = {**flatten(Plan().to_json()), **LEGACY_VALUES}
     known = flatten(have)
     return {
         k: v
