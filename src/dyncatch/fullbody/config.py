@@ -1,0 +1,137 @@
+"""Constants of the full-body MuJoCo model and its controllers, with units and sources.
+
+Plain frozen dataclasses (not JAX pytrees): the full-body layer steps one ``mujoco.MjData``
+on the CPU. The arm geometry and the base's standing height are *not* repeated here: they
+are read from the reduced model's ``ArmCfg`` and ``BaseCfg`` (``dyncatch.sim.config``), the
+one source of truth both layers share. ``docs/fullbody.md`` tabulates every default.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+from dyncatch.sim.config import ArmCfg, BaseCfg
+
+
+@dataclasses.dataclass(frozen=True)
+class Z1Cfg:
+    """Masses and actuator limits of the Z1-like arm (its kinematics come from ``ArmCfg``)."""
+
+    link_mass_kg: tuple[float, ...] = (0.67, 1.19, 0.84, 0.56, 0.39, 0.65)
+    """Mass of links 1-6 (link 6 includes the gripper). Ours: split of Unitree's published
+    4.3 kg (Z1 Pro datasheet, arm weight) roughly as the URDF's motors sit; sums to 4.30."""
+    max_torque_nm: tuple[float, ...] = (33.5, 67.0, 33.5, 33.5, 33.5, 33.5)
+    """Torque limit of joints 1-6. Z1 datasheet: 33.5 N m per joint motor; joint 2 (the
+    shoulder) has twice that in Unitree's z1_description xacro (``effort=2*torqueMax``)."""
+    kp_nm_per_rad: float = 80.0
+    """Joint PD stiffness. Ours: stiff enough that gravity-compensated tracking errors stay
+    under a millimetre at the gripper, well inside the torque limits."""
+    kd_nms_per_rad: float = 3.0
+    """Joint PD damping. Ours: about critical for the heaviest link's reflected inertia."""
+    link_radius_m: float = 0.035
+    """Capsule radius of the visual links. Ours: Z1's motor housings are about 7 cm across."""
+
+
+@dataclasses.dataclass(frozen=True)
+class GaitCfg:
+    """A model-based trot: force-distribution stance, Raibert foot placement, PD swing."""
+
+    period_s: float = 0.30
+    """Trot cycle: each diagonal pair swings for half of it while the other stands. Ours:
+    short enough that 2 m/s strides (0.3 m) stay within the legs' reach."""
+    swing_height_m: float = 0.09
+    """Apex of the swing foot above the ground."""
+    raibert_gain_s: float = 0.08
+    """Velocity-error feedback of the touchdown point (Raibert's k, in seconds)."""
+    max_step_offset_m: float = 0.22
+    """Largest horizontal touchdown offset from the hip (keeps the leg inside its workspace)."""
+    kp_vel_per_s: float = 4.0
+    """Horizontal velocity feedback of the stance force (acceleration per m/s of error)."""
+    kp_height_per_s2: float = 300.0
+    """Base-height stiffness of the stance force, per kg of robot."""
+    kd_height_per_s: float = 30.0
+    """Base-height damping, per kg of robot."""
+    kp_att_per_s2: float = 400.0
+    """Roll/pitch/yaw stiffness of the stance moment (scaled by the trunk's inertia)."""
+    kd_att_per_s: float = 40.0
+    """Roll/pitch/yaw-rate damping of the stance moment (scaled by the trunk's inertia)."""
+    inertia_kgm2: tuple[float, float, float] = (0.4, 1.0, 1.1)
+    """Diagonal of the robot's inertia about its COM in the trunk frame, which scales the
+    attitude gains. Ours: the MJCF trunk's (0.033, 0.161, 0.175) plus the legs and the arm
+    as point masses, rounded up."""
+    hold_kp_per_s2: float = 20.0
+    """Standing still (zero command): stiffness pulling the base back to where it stopped."""
+    friction_coef: float = 0.6
+    """Friction cone used to clip stance forces (below the MJCF's floor friction, 1.0)."""
+    swing_kp_nm_per_rad: float = 80.0
+    """Leg joint PD stiffness for swing feet and standing. Ours (the identified Aliengo
+    actuator model in gym-quadruped uses 25 with an RL policy; a model-based swing needs
+    stiffer tracking)."""
+    swing_kd_nms_per_rad: float = 2.0
+    """Leg joint PD damping."""
+    stance_kd_nms_per_rad: float = 1.0
+    """Leg joint damping added to the stance torques."""
+
+
+@dataclasses.dataclass(frozen=True)
+class FullBodyCfg:
+    """Everything the full-body simulation needs beyond the reduced model's configs."""
+
+    base: BaseCfg = BaseCfg()
+    """Reduced base model: its ``height_m`` (trunk top) sets the standing height."""
+    arm: ArmCfg = ArmCfg()
+    """Arm kinematics, joint limits, stow pose and IK constants (source of truth)."""
+    z1: Z1Cfg = Z1Cfg()
+    """Arm masses and actuator limits."""
+    gait: GaitCfg = GaitCfg()
+    """The trot controller."""
+    control_hz: float = 200.0
+    """Low-level control rate (paper, Sec. IV: low-level control at 200 Hz)."""
+    physics_dt_s: float = 0.001
+    """MuJoCo time step. Ours: 1 kHz; the joint PD law is re-evaluated every physics step
+    (as a motor driver does), the controller's targets are held for a control period."""
+    trunk_half_height_m: float = 0.056
+    """Half height of the trunk's collision box in the Aliengo MJCF (``size="... 0.056"``);
+    the arm is mounted on its top."""
+    max_arm_ik_step_rad: float = 0.25
+    """Largest DLS joint change per control step (a bound on the IK's own step, under
+    which the arm's velocity limit then clips)."""
+    fall_height_m: float = 0.18
+    """The robot has fallen when its trunk centre drops below this height..."""
+    fall_tilt_rad: float = math.radians(60.0)
+    """...or its trunk tilts more than this from upright."""
+    target_radius_m: float = 0.10
+    """Radius of the kinematic target sphere (``TargetCfg.radius_m``'s default)."""
+    target_height_m: float = 0.15
+    """Height of the target's centre (``TargetCfg.height_m``'s default)."""
+
+    @property
+    def stand_height_m(self) -> float:
+        """Trunk-centre height while standing: the trunk top at ``base.height_m``."""
+        return self.base.height_m - self.trunk_half_height_m
+
+    @property
+    def substeps(self) -> int:
+        """Physics steps per control step."""
+        return round(1.0 / (self.control_hz * self.physics_dt_s))
+
+
+def validate_fullbody(cfg: FullBodyCfg) -> FullBodyCfg:
+    """Refuse inconsistent settings with the field to change; returns ``cfg``."""
+    ratio = 1.0 / (cfg.control_hz * cfg.physics_dt_s)
+    if cfg.physics_dt_s <= 0 or abs(ratio - round(ratio)) > 1e-6 or round(ratio) < 1:
+        raise ValueError(
+            f"physics_dt_s={cfg.physics_dt_s} must divide the control period "
+            f"1/control_hz={1.0 / cfg.control_hz} a whole number of times"
+        )
+    if not 0.1 <= cfg.gait.period_s <= 1.0:
+        raise ValueError(f"gait.period_s={cfg.gait.period_s} must lie in [0.1, 1] s")
+    if len(cfg.z1.link_mass_kg) != 6 or len(cfg.z1.max_torque_nm) != 6:
+        raise ValueError("z1.link_mass_kg and z1.max_torque_nm need one value per joint (6)")
+    if cfg.stand_height_m <= 0.2:
+        raise ValueError(
+            f"base.height_m={cfg.base.height_m} puts the trunk centre at "
+            f"{cfg.stand_height_m:.3f} m, too low to walk; use at least 0.3"
+        )
+    return cfg
