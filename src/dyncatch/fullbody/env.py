@@ -133,8 +133,7 @@ class FullBodyEnv:
         """True once the trunk is below ``fall_height_m`` or tilted past ``fall_tilt_rad``."""
         rot = self.data.xmat[self.idx.base_body].reshape(3, 3)
         return bool(
-            self.data.qpos[2] < self.cfg.fall_height_m
-            or rot[2, 2] < np.cos(self.cfg.fall_tilt_rad)
+            self.data.qpos[2] < self.cfg.fall_height_m or rot[2, 2] < np.cos(self.cfg.fall_tilt_rad)
         )
 
     def base_velocity_heading(self) -> np.ndarray:

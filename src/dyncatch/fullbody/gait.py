@@ -69,6 +69,8 @@ class GaitState:
     """(2,) where the base stopped (the standing position hold)."""
     liftoff_m: np.ndarray
     """(4, 3) where each foot left the ground (the start of its swing path)."""
+    vel_err_int_m: np.ndarray
+    """(2,) integral of the velocity error (forward, left; heading frame), in metres."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -93,6 +95,7 @@ def initial_gait_state(obs: RobotObs) -> GaitState:
         yaw_ref_rad=yaw_of(obs.base_rot),
         hold_xy_m=obs.base_pos_m[:2].copy(),
         liftoff_m=obs.feet_m.copy(),
+        vel_err_int_m=np.zeros(2),
     )
 
 
@@ -117,7 +120,15 @@ def stance_forces(
     c, s = np.cos(yaw), np.sin(yaw)
     v_cmd = np.array([c * cmd[0] - s * cmd[1], s * cmd[0] + c * cmd[1]])
     acc = np.zeros(3)
-    acc[:2] = g.kp_vel_per_s * (v_cmd - obs.base_vel_mps[:2])
+    vel_int = np.array(
+        [
+            c * state.vel_err_int_m[0] - s * state.vel_err_int_m[1],
+            s * state.vel_err_int_m[0] + c * state.vel_err_int_m[1],
+        ]
+    )
+    acc[:2] = g.kp_vel_per_s * (v_cmd - obs.base_vel_mps[:2]) + g.ki_vel_per_s2 * vel_int
+    # Feedforward of the turn: the commanded velocity rotates with the heading at cmd[2].
+    acc[:2] += cmd[2] * np.array([-v_cmd[1], v_cmd[0]])
     if not state.trotting:
         acc[:2] += g.hold_kp_per_s2 * (state.hold_xy_m - obs.base_pos_m[:2])
     acc[2] = (
@@ -219,12 +230,21 @@ def trot_step(
     if trotting and (phase % 0.5) * g.period_s < 0.5 * dt:
         for leg in np.flatnonzero(PAIR_OF_LEG == swing_pair):
             liftoff[leg] = obs.feet_m[leg]
+    vel_int = state.vel_err_int_m
+    if trotting:
+        yaw = yaw_of(obs.base_rot)
+        c, s_ = np.cos(yaw), np.sin(yaw)
+        v = obs.base_vel_mps
+        err = cmd[:2] - np.array([c * v[0] + s_ * v[1], -s_ * v[0] + c * v[1]])
+        lim = g.max_vel_int_m
+        vel_int = np.clip(vel_int + err * dt, -lim, lim)
     next_state = GaitState(
         phase=(phase + dt / g.period_s) % 1.0 if trotting else 0.0,
         trotting=trotting,
         yaw_ref_rad=float(yaw_ref),
         hold_xy_m=hold,
         liftoff_m=liftoff,
+        vel_err_int_m=vel_int,
     )
     cur = dataclasses.replace(state, trotting=trotting, yaw_ref_rad=float(yaw_ref), hold_xy_m=hold)
     forces = stance_forces(obs, cmd, cur, stance, cfg)
