@@ -154,9 +154,11 @@ def fall_rate(env, cfg: GaitBenchCfg) -> float:
     return falls / cfg.episodes
 
 
-def run_gait_benchmark(cfg: GaitBenchCfg, world: FullBodyCfg = FullBodyCfg()) -> dict:
+def run_gait_benchmark(cfg: GaitBenchCfg, world: FullBodyCfg | None = None) -> dict:
     """Every figure of the module docstring, plus the wall time, as one JSON-able dict."""
     from dyncatch.fullbody.env import FullBodyEnv
+
+    world = FullBodyCfg() if world is None else world
 
     validate_gait_bench(cfg)
     t0 = time.perf_counter()

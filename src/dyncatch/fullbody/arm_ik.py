@@ -29,10 +29,9 @@ def ik_target_step(
     dt_s: float,
     max_step_rad: float,
 ) -> np.ndarray:
-    """Next arm PD targets (6,) moving the gripper (3,) toward ``goal_m`` (3,) in one step.
+    """Next arm PD targets (6,) moving the gripper toward ``goal_m`` (3,) in one step.
 
-    The Jacobian is taken at the measured pose; the change is applied to the previous
-    targets ``q_des`` (6,), so a steady PD lag does not leave a steady gripper error.
+    ``jac`` (3, 6) and ``gripper_m`` (3,) are those of the commanded joints ``q_des`` (6,).
     """
     dq = dls_delta(jac, goal_m - gripper_m, arm.ik_damping, arm.ik_gain)
     limit = min(arm.max_joint_vel_rps * dt_s, max_step_rad)

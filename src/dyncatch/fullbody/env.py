@@ -26,13 +26,16 @@ from dyncatch.fullbody.model import build_model, robot_mass_kg
 class FullBodyEnv:
     """Aliengo + arm + target. ``step(cmd, arm_goal_m)`` advances one control period."""
 
-    def __init__(self, cfg: FullBodyCfg = FullBodyCfg()):
+    def __init__(self, cfg: FullBodyCfg | None = None):
         import mujoco
+
+        cfg = FullBodyCfg() if cfg is None else cfg
 
         self._mj = mujoco
         self.cfg = validate_fullbody(cfg)
         self.model, self.idx = build_model(cfg)
         self.data = mujoco.MjData(self.model)
+        self._scratch = mujoco.MjData(self.model)
         self.mass_kg = robot_mass_kg(self.model)
         self._jacp = np.zeros((3, self.model.nv))
         self.gait: GaitState | None = None
@@ -87,14 +90,22 @@ class FullBodyEnv:
         self.data.mocap_pos[self.idx.target_mocap] = pos_m
 
     def _arm_targets(self, goal_m: np.ndarray | None) -> np.ndarray:
-        mj, m, d, idx = self._mj, self.model, self.data, self.idx
+        """Next arm PD targets. The DLS step runs on the *commanded* joints (their gripper
+        and Jacobian from a scratch ``MjData`` at the measured base pose), as the JAX arm
+        does; the PD then tracks the converged targets, so its lag cannot wind the IK up."""
+        mj, m, idx = self._mj, self.model, self.idx
         if goal_m is None:
             return stow_target_step(self.arm_q_des, self.cfg.arm, self.dt_s)
-        mj.mj_jacSite(m, d, self._jacp, None, idx.gripper_site)
+        k = self._scratch
+        k.qpos[:] = self.data.qpos
+        k.qpos[idx.arm_qpos] = self.arm_q_des
+        mj.mj_kinematics(m, k)
+        mj.mj_comPos(m, k)
+        mj.mj_jacSite(m, k, self._jacp, None, idx.gripper_site)
         return ik_target_step(
             self.arm_q_des,
             self._jacp[:, idx.arm_dof],
-            self.gripper_m(),
+            k.site_xpos[idx.gripper_site].copy(),
             np.asarray(goal_m, float),
             self.cfg.arm,
             self.dt_s,
