@@ -76,3 +76,24 @@ def test_each_swing_starts_where_its_foot_left_the_ground(env):
     run(env, [1.0, 0.0, 0.0], 3.0)
     behind = env.data.qpos[:2] - env.gait.liftoff_m[:, :2]
     assert np.abs(behind).max() < 0.6
+
+
+def test_turning_at_speed_keeps_speed_and_yaw_rate(env):
+    # The velocity integral cancels the outward slip of a turn (a clipped one left 0.3 m/s).
+    env.reset()
+    run(env, [1.5, 0.0, 1.0], 2.5)
+    vel = run(env, [1.5, 0.0, 1.0], 2.5)
+    assert vel[:, 0].mean() == pytest.approx(1.5, rel=0.10)
+    assert vel[:, 2].mean() == pytest.approx(1.0, rel=0.10)
+    assert abs(vel[:, 1].mean()) < 0.15
+
+
+def test_the_gait_follows_commands_under_the_base_acceleration_limits():
+    from dyncatch.fullbody.config import FullBodyCfg
+    from dyncatch.fullbody.gait import slew_command
+
+    cfg = FullBodyCfg()  # BaseCfg: 4 m/s^2, 10 rad/s^2; 200 Hz: 0.02 m/s and 0.05 rad/s a step
+    ref = np.zeros(3)
+    for _ in range(20):
+        ref = slew_command(ref, np.array([2.0, -0.01, 3.0]), cfg, 1.0 / cfg.control_hz)
+    np.testing.assert_allclose(ref, [0.4, -0.01, 1.0])

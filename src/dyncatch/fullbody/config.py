@@ -48,10 +48,10 @@ class GaitCfg:
     """Largest horizontal touchdown offset from the hip (keeps the leg inside its workspace)."""
     kp_vel_per_s: float = 8.0
     """Horizontal velocity feedback of the stance force (acceleration per m/s of error)."""
-    ki_vel_per_s2: float = 10.0
+    ki_vel_per_s2: float = 20.0
     """Integral feedback of the velocity error (removes the steady lag that joint friction
     and damping leave under proportional feedback alone)."""
-    max_vel_int_m: float = 0.3
+    max_vel_int_m: float = 1.0
     """Clip of the velocity-error integral (anti-windup), per axis."""
     kp_height_per_s2: float = 300.0
     """Base-height stiffness of the stance force, per kg of robot."""

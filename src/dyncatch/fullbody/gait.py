@@ -71,6 +71,9 @@ class GaitState:
     """(4, 3) where each foot left the ground (the start of its swing path)."""
     vel_err_int_m: np.ndarray
     """(2,) integral of the velocity error (forward, left; heading frame), in metres."""
+    cmd_ref: np.ndarray
+    """(3,) the command the gait follows: the given one under ``BaseCfg``'s acceleration
+    limits (the reduced base's own limits, so both models see the same reference)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -96,6 +99,7 @@ def initial_gait_state(obs: RobotObs) -> GaitState:
         hold_xy_m=obs.base_pos_m[:2].copy(),
         liftoff_m=obs.feet_m.copy(),
         vel_err_int_m=np.zeros(2),
+        cmd_ref=np.zeros(3),
     )
 
 
@@ -199,15 +203,25 @@ def _swing_foot_base(
     return obs.base_rot.T @ (foot_w - obs.base_pos_m)
 
 
+def slew_command(ref: np.ndarray, cmd: np.ndarray, cfg: FullBodyCfg, dt_s: float) -> np.ndarray:
+    """``ref`` (3,) moved toward ``cmd`` (3,) under the base's acceleration limits in one step."""
+    lin = cfg.base.max_lin_accel_mps2 * dt_s
+    yaw = cfg.base.max_yaw_accel_rps2 * dt_s
+    step = np.clip(np.asarray(cmd, float) - ref, [-lin, -lin, -yaw], [lin, lin, yaw])
+    return ref + step
+
+
 def trot_step(
     obs: RobotObs, cmd: np.ndarray, state: GaitState, cfg: FullBodyCfg
 ) -> tuple[JointTargets, GaitState]:
     """One 200 Hz control step of the legs: ``(JointTargets, next GaitState)``.
 
-    ``cmd`` (3,): forward and left velocity (m/s) in the heading frame, yaw rate (rad/s).
+    ``cmd`` (3,): forward and left velocity (m/s) in the heading frame, yaw rate (rad/s);
+    the gait follows it through ``slew_command``.
     """
     g = cfg.gait
     dt = 1.0 / cfg.control_hz
+    cmd = slew_command(state.cmd_ref, cmd, cfg, dt)
     moving = bool(np.any(np.abs(cmd) > 1e-3))
     trotting, phase, hold = state.trotting, state.phase, state.hold_xy_m
     if moving and not trotting:
@@ -245,6 +259,7 @@ def trot_step(
         hold_xy_m=hold,
         liftoff_m=liftoff,
         vel_err_int_m=vel_int,
+        cmd_ref=cmd,
     )
     cur = dataclasses.replace(state, trotting=trotting, yaw_ref_rad=float(yaw_ref), hold_xy_m=hold)
     forces = stance_forces(obs, cmd, cur, stance, cfg)
