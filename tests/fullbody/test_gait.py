@@ -97,3 +97,12 @@ def test_the_gait_follows_commands_under_the_base_acceleration_limits():
     for _ in range(20):
         ref = slew_command(ref, np.array([2.0, -0.01, 3.0]), cfg, 1.0 / cfg.control_hz)
     np.testing.assert_allclose(ref, [0.4, -0.01, 1.0])
+
+
+def test_turns_at_speed_are_held_to_the_centripetal_limit():
+    from dyncatch.fullbody.gait import limit_turn
+
+    # 2 m/s at 2 rad/s is 4 m/s^2; held to 3 m/s^2 the yaw rate is 3 / 2 = 1.5 rad/s.
+    np.testing.assert_allclose(limit_turn(np.array([2.0, 0.0, -2.0]), 3.0), [2.0, 0.0, -1.5])
+    # Speed is the norm of (forward, left): 0.6, 0.8 -> 1 m/s; 2 rad/s is within 3 m/s^2.
+    np.testing.assert_allclose(limit_turn(np.array([0.6, 0.8, 2.0]), 3.0), [0.6, 0.8, 2.0])

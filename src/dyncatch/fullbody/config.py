@@ -44,6 +44,15 @@ class GaitCfg:
     """Apex of the swing foot above the ground."""
     raibert_gain_s: float = 0.08
     """Velocity-error feedback of the touchdown point (Raibert's k, in seconds)."""
+    max_centripetal_mps2: float = 3.0
+    """Turning at speed, the yaw rate followed is held to this over the speed. Ours: the
+    value of the reduced model's named reading ``legged_turning`` (``BaseCfg``'s
+    ``max_lateral_accel_mps2``); without it 2 m/s at 2 rad/s falls."""
+    turn_step_gain: float = 0.1
+    """Gain of the turn term sqrt(h/g) (v x yaw rate) of the landing point (0.5 in MIT's
+    Cheetah 3 heuristic). Ours, measured: 0 leaves 0.3-0.6 m/s of outward slip at 1.5-2 m/s
+    and 1 rad/s; 0.1 leaves under 0.2 m/s; 0.2 removes it but falls in 7 of 20 random
+    episodes over BaseCfg's whole command box (0.1: none); 0.5 and the opposite sign fall."""
     max_step_offset_m: float = 0.22
     """Largest horizontal touchdown offset from the hip (keeps the leg inside its workspace)."""
     kp_vel_per_s: float = 8.0
@@ -53,6 +62,9 @@ class GaitCfg:
     and damping leave under proportional feedback alone)."""
     max_vel_int_m: float = 1.0
     """Clip of the velocity-error integral (anti-windup), per axis."""
+    max_accel_mps2: float = 8.0
+    """Clip of the horizontal acceleration demand; while it clips, the velocity integral
+    holds (anti-windup). Ours: 4 m/s^2 starved sideways walking (0.7 of 1 m/s tracked)."""
     kp_height_per_s2: float = 300.0
     """Base-height stiffness of the stance force, per kg of robot."""
     kd_height_per_s: float = 30.0
@@ -67,6 +79,10 @@ class GaitCfg:
     as point masses, rounded up."""
     hold_kp_per_s2: float = 20.0
     """Standing still (zero command): stiffness pulling the base back to where it stopped."""
+    wrench_weights: tuple[float, ...] = (1.0, 1.0, 1.0, 10.0, 10.0, 10.0)
+    """Least-squares weights of the desired wrench's rows (force x, y, z; moment x, y, z).
+    On one diagonal pair the moment about the line between the feet cannot be made, so
+    these weights decide what gives way."""
     friction_coef: float = 0.6
     """Friction cone used to clip stance forces (below the MJCF's floor friction, 1.0)."""
     swing_kp_nm_per_rad: float = 150.0

@@ -111,6 +111,33 @@ def _wrap(a: float) -> float:
     return (a + np.pi) % (2 * np.pi) - np.pi
 
 
+def horizontal_accel(
+    obs: RobotObs, cmd: np.ndarray, state: GaitState, cfg: FullBodyCfg
+) -> tuple[np.ndarray, bool]:
+    """Desired horizontal COM acceleration (2,) (world) and whether it was clipped.
+
+    P+I on the velocity error, the turn's feedforward, the standing position hold; the sum
+    is clipped to ``max_accel_mps2``, and a clipped demand stops the integral (anti-windup:
+    an infeasible command, e.g. 2 m/s while turning at 2 rad/s, must not wind it up).
+    """
+    g = cfg.gait
+    yaw = yaw_of(obs.base_rot)
+    c, s = np.cos(yaw), np.sin(yaw)
+    rot = np.array([[c, -s], [s, c]])
+    v_cmd = rot @ cmd[:2]
+    acc = g.kp_vel_per_s * (v_cmd - obs.base_vel_mps[:2]) + g.ki_vel_per_s2 * (
+        rot @ state.vel_err_int_m
+    )
+    # Feedforward of the turn: the commanded velocity rotates with the heading at cmd[2].
+    acc += cmd[2] * np.array([-v_cmd[1], v_cmd[0]])
+    if not state.trotting:
+        acc += g.hold_kp_per_s2 * (state.hold_xy_m - obs.base_pos_m[:2])
+    norm = float(np.linalg.norm(acc))
+    if norm > g.max_accel_mps2:
+        return acc * (g.max_accel_mps2 / norm), True
+    return acc, False
+
+
 def stance_forces(
     obs: RobotObs, cmd: np.ndarray, state: GaitState, stance: np.ndarray, cfg: FullBodyCfg
 ) -> np.ndarray:
@@ -120,21 +147,8 @@ def stance_forces(
     """
     g = cfg.gait
     m = obs.mass_kg
-    yaw = yaw_of(obs.base_rot)
-    c, s = np.cos(yaw), np.sin(yaw)
-    v_cmd = np.array([c * cmd[0] - s * cmd[1], s * cmd[0] + c * cmd[1]])
     acc = np.zeros(3)
-    vel_int = np.array(
-        [
-            c * state.vel_err_int_m[0] - s * state.vel_err_int_m[1],
-            s * state.vel_err_int_m[0] + c * state.vel_err_int_m[1],
-        ]
-    )
-    acc[:2] = g.kp_vel_per_s * (v_cmd - obs.base_vel_mps[:2]) + g.ki_vel_per_s2 * vel_int
-    # Feedforward of the turn: the commanded velocity rotates with the heading at cmd[2].
-    acc[:2] += cmd[2] * np.array([-v_cmd[1], v_cmd[0]])
-    if not state.trotting:
-        acc[:2] += g.hold_kp_per_s2 * (state.hold_xy_m - obs.base_pos_m[:2])
+    acc[:2], _ = horizontal_accel(obs, cmd, state, cfg)
     acc[2] = (
         g.kp_height_per_s2 * (cfg.stand_height_m - obs.base_pos_m[2])
         - g.kd_height_per_s * obs.base_vel_mps[2]
@@ -143,7 +157,7 @@ def stance_forces(
     # Attitude error as a rotation vector: roll and pitch to level, yaw to the reference.
     r = obs.base_rot
     tilt_err = np.cross(r[:, 2], np.array([0.0, 0.0, 1.0]))
-    yaw_err = _wrap(state.yaw_ref_rad - yaw)
+    yaw_err = _wrap(state.yaw_ref_rad - yaw_of(r))
     rot_err = tilt_err + np.array([0.0, 0.0, yaw_err])
     w_err = np.array([0.0, 0.0, cmd[2]]) - obs.base_angvel_rps
     inertia_w = r @ np.diag(g.inertia_kgm2) @ r.T
@@ -155,7 +169,7 @@ def stance_forces(
     for k, leg in enumerate(legs):
         a[:3, 3 * k : 3 * k + 3] = np.eye(3)
         a[3:, 3 * k : 3 * k + 3] = _skew(obs.feet_m[leg] - obs.com_m)
-    weight = np.diag([1.0, 1.0, 1.0, 10.0, 10.0, 10.0])
+    weight = np.diag(g.wrench_weights)
     lhs = a.T @ weight @ a + 1e-3 * np.eye(a.shape[1])
     f = np.linalg.solve(lhs, a.T @ weight @ wrench).reshape(-1, 3)
     forces = np.zeros((4, 3))
@@ -185,6 +199,9 @@ def touchdown_point(
     v_hip_cmd = v_cmd + np.cross(np.array([0.0, 0.0, cmd[2]]), arm_w)
     stance_s = 0.5 * g.period_s
     offset = 0.5 * stance_s * v_hip_cmd[:2] + g.raibert_gain_s * (v_hip[:2] - v_hip_cmd[:2])
+    # Turning: the landing point moves by the centripetal term of Pratt/MIT's heuristic.
+    turn = np.cross(v_cmd, [0.0, 0.0, cmd[2]])[:2]
+    offset = offset + g.turn_step_gain * np.sqrt(cfg.stand_height_m / GRAVITY_MPS2) * turn
     norm = np.linalg.norm(offset)
     if norm > g.max_step_offset_m:
         offset *= g.max_step_offset_m / norm
@@ -211,6 +228,14 @@ def slew_command(ref: np.ndarray, cmd: np.ndarray, cfg: FullBodyCfg, dt_s: float
     return ref + step
 
 
+def limit_turn(cmd: np.ndarray, max_centripetal_mps2: float) -> np.ndarray:
+    """``cmd`` (3,) with its yaw rate held to ``max_centripetal_mps2`` / speed."""
+    speed = float(np.hypot(cmd[0], cmd[1]))
+    if speed * abs(cmd[2]) <= max_centripetal_mps2:
+        return cmd
+    return np.array([cmd[0], cmd[1], np.sign(cmd[2]) * max_centripetal_mps2 / speed])
+
+
 def trot_step(
     obs: RobotObs, cmd: np.ndarray, state: GaitState, cfg: FullBodyCfg
 ) -> tuple[JointTargets, GaitState]:
@@ -222,6 +247,8 @@ def trot_step(
     g = cfg.gait
     dt = 1.0 / cfg.control_hz
     cmd = slew_command(state.cmd_ref, cmd, cfg, dt)
+    ref = cmd
+    cmd = limit_turn(cmd, g.max_centripetal_mps2)
     moving = bool(np.any(np.abs(cmd) > 1e-3))
     trotting, phase, hold = state.trotting, state.phase, state.hold_xy_m
     if moving and not trotting:
@@ -245,7 +272,8 @@ def trot_step(
         for leg in np.flatnonzero(PAIR_OF_LEG == swing_pair):
             liftoff[leg] = obs.feet_m[leg]
     vel_int = state.vel_err_int_m
-    if trotting:
+    _, saturated = horizontal_accel(obs, cmd, state, cfg)
+    if trotting and not saturated:
         yaw = yaw_of(obs.base_rot)
         c, s_ = np.cos(yaw), np.sin(yaw)
         v = obs.base_vel_mps
@@ -259,7 +287,7 @@ def trot_step(
         hold_xy_m=hold,
         liftoff_m=liftoff,
         vel_err_int_m=vel_int,
-        cmd_ref=cmd,
+        cmd_ref=ref,
     )
     cur = dataclasses.replace(state, trotting=trotting, yaw_ref_rad=float(yaw_ref), hold_xy_m=hold)
     forces = stance_forces(obs, cmd, cur, stance, cfg)
