@@ -11,13 +11,18 @@ from dyncatch.cli.main import main
 def test_random_commands_stay_in_their_ranges_and_hold():
     import numpy as np
 
-    cfg = GaitBenchCfg(episode_s=10.0)
-    cmds = random_commands(np.random.default_rng(0), cfg, 200.0)
-    assert cmds.shape == (2000, 3)
-    assert cmds[:, 0].min() >= -0.5 and cmds[:, 0].max() <= 1.5
-    assert np.abs(cmds[:, 1]).max() <= 0.5 and np.abs(cmds[:, 2]).max() <= 1.0
+    from dyncatch.sim.config import BaseCfg
+
+    cfg = GaitBenchCfg(episode_s=60.0)
+    cmds = random_commands(np.random.default_rng(0), cfg, BaseCfg(), 200.0)
+    assert cmds.shape == (12000, 3)
+    # BaseCfg's box: forward 2.0, backward 1.0, sideways 1.0, yaw rate 2.0; a minute of
+    # commands held 1-3 s (20-60 draws) comes within 0.5 of each bound.
+    assert -1.0 <= cmds[:, 0].min() < -0.5 and 1.5 < cmds[:, 0].max() <= 2.0
+    assert 0.5 < np.abs(cmds[:, 1]).max() <= 1.0 and 1.5 < np.abs(cmds[:, 2]).max() <= 2.0
     changes = np.flatnonzero(np.any(np.diff(cmds, axis=0) != 0, axis=1))
     assert np.diff(changes).min() >= 200  # held at least hold_min_s = 1 s
+    assert np.diff(changes).max() <= 600  # and at most hold_max_s = 3 s
 
 
 def test_bad_bench_config_is_refused():

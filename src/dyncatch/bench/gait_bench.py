@@ -12,8 +12,10 @@ Every number comes from simulating ``FullBodyEnv`` (``dyncatch.fullbody``) under
 * ``lag_s``: from standing, a ``lag_step_mps`` forward step; the time until the forward
   speed first reaches 63.2 % of its settled mean (a first-order model's time constant).
 * ``fall_rate``: the fraction of ``episodes`` of ``episode_s`` under random piecewise-constant
-  commands (uniform in the ranges below, each held U(``hold_min_s``, ``hold_max_s``)) in
-  which the robot falls (``FullBodyEnv.fallen``).
+  commands, uniform over the reduced base's command box (``BaseCfg``: forward up to
+  ``max_forward_mps``, backward ``max_backward_mps``, sideways ``max_lateral_mps``, yaw rate
+  ``max_yaw_rate_rps``; what a catch policy may send), each held U(``hold_min_s``,
+  ``hold_max_s``), in which the robot falls (``FullBodyEnv.fallen``).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ import time
 import numpy as np
 
 from dyncatch.fullbody.config import FullBodyCfg
+from dyncatch.sim.config import BaseCfg
 
 
 @dataclasses.dataclass(frozen=True)
@@ -46,14 +49,6 @@ class GaitBenchCfg:
     """Random-command episodes for ``fall_rate``."""
     episode_s: float = 20.0
     """Length of one episode (the catch task's episode length)."""
-    max_forward_mps: float = 1.5
-    """Random commands: forward speed up to this..."""
-    max_backward_mps: float = 0.5
-    """...backward up to this..."""
-    max_lateral_mps: float = 0.5
-    """...sideways up to this..."""
-    max_yaw_rate_rps: float = 1.0
-    """...and yaw rate up to this (magnitude)."""
     hold_min_s: float = 1.0
     """Shortest time one random command is held."""
     hold_max_s: float = 3.0
@@ -122,17 +117,19 @@ def lag_time_s(env, cfg: GaitBenchCfg) -> float:
     return float((above[0] + 1) / env.cfg.control_hz) if len(above) else float("nan")
 
 
-def random_commands(rng: np.random.Generator, cfg: GaitBenchCfg, control_hz: float) -> np.ndarray:
-    """(T, 3) piecewise-constant commands for one episode."""
+def random_commands(
+    rng: np.random.Generator, cfg: GaitBenchCfg, base: BaseCfg, control_hz: float
+) -> np.ndarray:
+    """(T, 3) piecewise-constant commands for one episode, uniform in ``base``'s box."""
     steps = round(cfg.episode_s * control_hz)
     out = np.zeros((steps, 3))
     t = 0
     while t < steps:
         hold = round(rng.uniform(cfg.hold_min_s, cfg.hold_max_s) * control_hz)
         out[t : t + hold] = (
-            rng.uniform(-cfg.max_backward_mps, cfg.max_forward_mps),
-            rng.uniform(-cfg.max_lateral_mps, cfg.max_lateral_mps),
-            rng.uniform(-cfg.max_yaw_rate_rps, cfg.max_yaw_rate_rps),
+            rng.uniform(-base.max_backward_mps, base.max_forward_mps),
+            rng.uniform(-base.max_lateral_mps, base.max_lateral_mps),
+            rng.uniform(-base.max_yaw_rate_rps, base.max_yaw_rate_rps),
         )
         t += hold
     return out
@@ -146,7 +143,7 @@ def fall_rate(env, cfg: GaitBenchCfg) -> float:
     falls = 0
     for _ in range(cfg.episodes):
         env.reset(yaw_rad=float(rng.uniform(-np.pi, np.pi)))
-        for cmd in random_commands(rng, cfg, env.cfg.control_hz):
+        for cmd in random_commands(rng, cfg, env.cfg.base, env.cfg.control_hz):
             env.step(cmd)
             if env.fallen():
                 falls += 1
