@@ -34,7 +34,7 @@ def test_masses_are_the_mjcf_aliengo_plus_the_z1_arm(built):
     # Unitree's Aliengo figure is about 21-23 kg; the MJCF's links add up to 24.6 kg.
     assert 20.0 < ALIENGO_MJCF_KG < 25.0
     arm_kg = sum(model.body(f"arm_link{i}").mass[0] for i in range(1, 7))
-    assert arm_kg == pytest.approx(4.30)  # Z1 datasheet: 4.3 kg
+    assert arm_kg == pytest.approx(4.30)  # Unitree Z1: 4.3 kg
     assert robot_mass_kg(model) == pytest.approx(ALIENGO_MJCF_KG + 4.30)
 
 

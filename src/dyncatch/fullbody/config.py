@@ -19,11 +19,13 @@ class Z1Cfg:
     """Masses and actuator limits of the Z1-like arm (its kinematics come from ``ArmCfg``)."""
 
     link_mass_kg: tuple[float, ...] = (0.67, 1.19, 0.84, 0.56, 0.39, 0.65)
-    """Mass of links 1-6 (link 6 includes the gripper). Ours: split of Unitree's published
-    4.3 kg (Z1 Pro datasheet, arm weight) roughly as the URDF's motors sit; sums to 4.30."""
-    max_torque_nm: tuple[float, ...] = (33.5, 67.0, 33.5, 33.5, 33.5, 33.5)
-    """Torque limit of joints 1-6. Z1 datasheet: 33.5 N m per joint motor; joint 2 (the
-    shoulder) has twice that in Unitree's z1_description xacro (``effort=2*torqueMax``)."""
+    """Mass of links 1-6. Links 1-5: Unitree's z1_description URDF (0.673, 1.191, 0.839,
+    0.564, 0.389 kg); link 6 (URDF 0.289 kg) carries the gripper, sized so the arm weighs
+    Unitree's published 4.3 kg. The URDF's base link (0.472 kg) is bolted to the trunk and
+    left out."""
+    max_torque_nm: tuple[float, ...] = (30.0, 60.0, 30.0, 30.0, 30.0, 30.0)
+    """Torque limit of joints 1-6: the ``effort`` limits of Unitree's z1_description URDF
+    (the shoulder, joint 2, has twice the others)."""
     kp_nm_per_rad: float = 80.0
     """Joint PD stiffness. Ours: stiff enough that gravity-compensated tracking errors stay
     under a millimetre at the gripper, well inside the torque limits."""
