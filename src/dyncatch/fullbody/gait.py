@@ -170,7 +170,7 @@ def stance_forces(
         a[:3, 3 * k : 3 * k + 3] = np.eye(3)
         a[3:, 3 * k : 3 * k + 3] = _skew(obs.feet_m[leg] - obs.com_m)
     weight = np.diag(g.wrench_weights)
-    lhs = a.T @ weight @ a + 1e-3 * np.eye(a.shape[1])
+    lhs = a.T @ weight @ a + g.force_damping * np.eye(a.shape[1])
     f = np.linalg.solve(lhs, a.T @ weight @ wrench).reshape(-1, 3)
     forces = np.zeros((4, 3))
     for k, leg in enumerate(legs):
@@ -213,10 +213,11 @@ def _swing_foot_base(
     obs: RobotObs, start: np.ndarray, land: np.ndarray, s: float, cfg: FullBodyCfg
 ) -> np.ndarray:
     """Swing foot (3,) in the trunk frame at progress ``s`` in [0, 1]: a cosine blend from
-    liftoff to landing, a sine bump in height, ending 1 cm into the ground to make contact."""
+    liftoff to landing, a sine bump in height, ending ``touchdown_depth_m`` into the ground."""
     blend = 0.5 - 0.5 * np.cos(np.pi * s)
     foot_w = start + (land - start) * blend
-    foot_w[2] = FOOT_RADIUS_M + cfg.gait.swing_height_m * np.sin(np.pi * s) - 0.01 * s
+    g = cfg.gait
+    foot_w[2] = FOOT_RADIUS_M + g.swing_height_m * np.sin(np.pi * s) - g.touchdown_depth_m * s
     return obs.base_rot.T @ (foot_w - obs.base_pos_m)
 
 
@@ -260,7 +261,8 @@ def trot_step(
             trotting, hold = False, obs.base_pos_m[:2].copy()
     yaw_ref = state.yaw_ref_rad + cmd[2] * dt if trotting else state.yaw_ref_rad
     # Keep the reference within reach, so a blocked turn cannot wind it up.
-    yaw_ref = yaw_of(obs.base_rot) + np.clip(_wrap(yaw_ref - yaw_of(obs.base_rot)), -0.3, 0.3)
+    lead = _wrap(yaw_ref - yaw_of(obs.base_rot))
+    yaw_ref = yaw_of(obs.base_rot) + np.clip(lead, -g.max_yaw_lead_rad, g.max_yaw_lead_rad)
 
     half = 0.5 * g.period_s
     swing_pair = 0 if phase < 0.5 else 1

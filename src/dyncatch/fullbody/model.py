@@ -116,8 +116,8 @@ def _add_arm(spec, cfg: FullBodyCfg) -> None:
             axis=list(axes[i]),
             range=[arm.joint_min_rad[i], arm.joint_max_rad[i]],
             limited=mujoco.mjtLimited.mjLIMITED_TRUE,
-            damping=0.1,
-            armature=0.01,
+            damping=z1.joint_damping_nms_per_rad,
+            armature=z1.armature_kgm2,
         )
         end = lengths[i]
         body.add_geom(
