@@ -1,11 +1,14 @@
-"""``dyncatch bench env|ppo``: simulator and PPO throughput, printed as a table or JSON."""
+"""``dyncatch bench env|ppo|gait``: simulator and PPO throughput, and the full-body gait's
+step responses; printed as a table or JSON."""
 
 from __future__ import annotations
 
 import dataclasses
 import json
 
+from dyncatch.bench.gait_bench import GaitBenchCfg
 from dyncatch.bench.ppo_bench import PEAK_ROWS
+from dyncatch.fullbody.config import FullBodyCfg
 from dyncatch.rl.config import PPOCfg
 from dyncatch.sim.config import WorldCfg
 from dyncatch.utils.cli_types import BehaviorName
@@ -148,3 +151,45 @@ def format_ppo_table(r: dict) -> str:
             f"\nmachine: {m['cpu']}, {m['cores']} cores, jax {m['jax']} ({m['backend']})",
         ]
     )
+
+
+@dataclasses.dataclass(frozen=True)
+class GaitBenchCmd:
+    """Step responses and fall rate of the full-body MuJoCo gait (needs the [fullbody] extra)."""
+
+    json: bool = False
+    """Print one JSON object instead of a table."""
+    bench: GaitBenchCfg = GaitBenchCfg()
+    """What is commanded and how tracking is judged."""
+    fullbody: FullBodyCfg = FullBodyCfg()
+    """The full-body model and its controllers."""
+
+
+def run_gait_bench(cmd: GaitBenchCmd) -> dict:
+    from dyncatch.bench.gait_bench import run_gait_benchmark
+    from dyncatch.fullbody.config import validate_fullbody
+
+    try:
+        import mujoco  # noqa: F401
+    except ModuleNotFoundError as e:
+        raise SystemExit("bench gait needs MuJoCo: pip install -e '.[fullbody]'") from e
+    result = run_gait_benchmark(cmd.bench, validate_fullbody(cmd.fullbody))
+    if cmd.json:
+        print(json.dumps(result))
+    else:
+        print(format_gait_table(result))
+    return result
+
+
+def format_gait_table(r: dict) -> str:
+    rows = [
+        ("max forward speed tracked (m/s)", r["max_forward_mps"]),
+        ("max yaw rate tracked (rad/s)", r["max_yaw_rate_rps"]),
+        ("yaw rate tracked at max forward (rad/s)", r["yaw_rate_at_max_forward_rps"]),
+        ("63 % rise time of a forward step (s)", r["lag_s"]),
+        (f"fall rate ({r['episodes']} random-command episodes)", r["fall_rate"]),
+    ]
+    lines = ["| quantity | value |", "|---|---:|"]
+    lines += [f"| {name} | {value} |" for name, value in rows]
+    lines.append(f"\nwall time: {r['wall_s']} s")
+    return "\n".join(lines)

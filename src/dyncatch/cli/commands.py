@@ -14,7 +14,14 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from dyncatch.cli.bench import EnvBenchCmd, PPOBenchCmd, run_env_bench, run_ppo_bench
+from dyncatch.cli.bench import (
+    EnvBenchCmd,
+    GaitBenchCmd,
+    PPOBenchCmd,
+    run_env_bench,
+    run_gait_bench,
+    run_ppo_bench,
+)
 from dyncatch.cli.demo import DemoCmd, run_demo
 from dyncatch.cli.eval import EvalCmd, run_eval, run_world_default
 from dyncatch.cli.export import ExportCmd, run_export
@@ -51,8 +58,12 @@ COMMANDS: dict[str, Command | Group] = {
     "plot": Command(PlotCmd, run_plot),
     "reproduce": Command(Plan, run_reproduce, profile_default),
     "bench": Group(
-        "Throughput benchmarks.",
-        {"env": Command(EnvBenchCmd, run_env_bench), "ppo": Command(PPOBenchCmd, run_ppo_bench)},
+        "Throughput benchmarks; the full-body gait's step responses.",
+        {
+            "env": Command(EnvBenchCmd, run_env_bench),
+            "ppo": Command(PPOBenchCmd, run_ppo_bench),
+            "gait": Command(GaitBenchCmd, run_gait_bench),
+        },
     ),
     "predictor": Group(
         "The target-behaviour predictor (Section III-B, Table II).",

@@ -1,0 +1,175 @@
+"""Constants of the full-body MuJoCo model and its controllers, with units and sources.
+
+Plain frozen dataclasses (not JAX pytrees): the full-body layer steps one ``mujoco.MjData``
+on the CPU. The arm geometry and the base's standing height are *not* repeated here: they
+are read from the reduced model's ``ArmCfg`` and ``BaseCfg`` (``dyncatch.sim.config``), the
+one source of truth both layers share. ``docs/fullbody.md`` tabulates every default.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+from dyncatch.sim.config import ArmCfg, BaseCfg
+
+
+@dataclasses.dataclass(frozen=True)
+class Z1Cfg:
+    """Masses and actuator limits of the Z1-like arm (its kinematics come from ``ArmCfg``)."""
+
+    link_mass_kg: tuple[float, ...] = (0.67, 1.19, 0.84, 0.56, 0.39, 0.65)
+    """Mass of links 1-6. Links 1-5: Unitree's z1_description URDF (0.673, 1.191, 0.839,
+    0.564, 0.389 kg); link 6 (URDF 0.289 kg) carries the gripper, sized so the arm weighs
+    Unitree's published 4.3 kg. The URDF's base link (0.472 kg) is bolted to the trunk and
+    left out."""
+    max_torque_nm: tuple[float, ...] = (30.0, 60.0, 30.0, 30.0, 30.0, 30.0)
+    """Torque limit of joints 1-6: the ``effort`` limits of Unitree's z1_description URDF
+    (the shoulder, joint 2, has twice the others)."""
+    kp_nm_per_rad: float = 80.0
+    """Joint PD stiffness. Ours: stiff enough that gravity-compensated tracking errors stay
+    under a millimetre at the gripper, well inside the torque limits."""
+    kd_nms_per_rad: float = 3.0
+    """Joint PD damping. Ours: about critical for the heaviest link's reflected inertia."""
+    joint_damping_nms_per_rad: float = 0.1
+    """Passive joint damping of the MJCF joints. Ours: small; the URDF's 1-2 are Gazebo
+    friction stand-ins, and the PD supplies the damping."""
+    armature_kgm2: float = 0.01
+    """Rotor inertia reflected at each joint. Ours: the order of the Aliengo MJCF's
+    identified armatures (0.006-0.027 kg m^2)."""
+    link_radius_m: float = 0.035
+    """Capsule radius of the visual links. Ours: Z1's motor housings are about 7 cm across."""
+
+
+@dataclasses.dataclass(frozen=True)
+class GaitCfg:
+    """A model-based trot: force-distribution stance, Raibert foot placement, PD swing."""
+
+    period_s: float = 0.30
+    """Trot cycle: each diagonal pair swings for half of it while the other stands. Ours:
+    short enough that 2 m/s strides (0.3 m) stay within the legs' reach."""
+    swing_height_m: float = 0.09
+    """Apex of the swing foot above the ground."""
+    raibert_gain_s: float = 0.08
+    """Velocity-error feedback of the touchdown point (Raibert's k, in seconds)."""
+    max_centripetal_mps2: float = 3.0
+    """Turning at speed, the yaw rate followed is held to this over the speed. Ours: the
+    value of the reduced model's named reading ``legged_turning`` (``BaseCfg``'s
+    ``max_lateral_accel_mps2``); without it 2 m/s at 2 rad/s falls."""
+    turn_step_gain: float = 0.1
+    """Gain of the turn term sqrt(h/g) (v x yaw rate) of the landing point (0.5 in MIT's
+    Cheetah 3 heuristic). Ours, measured: 0 leaves 0.3-0.6 m/s of outward slip at 1.5-2 m/s
+    and 1 rad/s; 0.1 leaves under 0.2 m/s; 0.2 removes it but falls in 7 of 20 random
+    episodes over BaseCfg's whole command box (0.1: none); 0.5 and the opposite sign fall."""
+    max_step_offset_m: float = 0.22
+    """Largest horizontal touchdown offset from the hip (keeps the leg inside its workspace)."""
+    kp_vel_per_s: float = 8.0
+    """Horizontal velocity feedback of the stance force (acceleration per m/s of error)."""
+    ki_vel_per_s2: float = 20.0
+    """Integral feedback of the velocity error (removes the steady lag that joint friction
+    and damping leave under proportional feedback alone)."""
+    max_vel_int_m: float = 1.0
+    """Clip of the velocity-error integral (anti-windup), per axis."""
+    max_accel_mps2: float = 8.0
+    """Clip of the horizontal acceleration demand; while it clips, the velocity integral
+    holds (anti-windup). Ours: 4 m/s^2 starved sideways walking (0.7 of 1 m/s tracked)."""
+    kp_height_per_s2: float = 300.0
+    """Base-height stiffness (acceleration per metre of error; the force is this times the
+    robot's mass)."""
+    kd_height_per_s: float = 30.0
+    """Base-height damping (acceleration per m/s of vertical velocity)."""
+    kp_att_per_s2: float = 400.0
+    """Roll/pitch/yaw stiffness of the stance moment (scaled by the trunk's inertia)."""
+    kd_att_per_s: float = 40.0
+    """Roll/pitch/yaw-rate damping of the stance moment (scaled by the trunk's inertia)."""
+    inertia_kgm2: tuple[float, float, float] = (0.4, 1.0, 1.1)
+    """Diagonal of the robot's inertia about its COM in the trunk frame, which scales the
+    attitude gains. Ours: the MJCF trunk's (0.033, 0.161, 0.175) plus the legs and the arm
+    as point masses, rounded up."""
+    hold_kp_per_s2: float = 20.0
+    """Standing still (zero command): stiffness pulling the base back to where it stopped."""
+    wrench_weights: tuple[float, ...] = (1.0, 1.0, 1.0, 10.0, 10.0, 10.0)
+    """Least-squares weights of the desired wrench's rows (force x, y, z; moment x, y, z):
+    on two feet the wrench cannot always be met, and these decide what gives way. Ours,
+    measured: with the moments weighted 1 instead of 10 the trunk tips over at once."""
+    force_damping: float = 1e-3
+    """Tikhonov damping of the force least squares (N^2 per N^2 of wrench error); keeps the
+    solve regular and the forces small where the wrench does not need them."""
+    touchdown_depth_m: float = 0.01
+    """The swing path ends this far below the ground, so the foot lands even when early."""
+    max_yaw_lead_rad: float = 0.3
+    """The yaw reference stays within this of the heading, so a blocked turn cannot wind
+    it up."""
+    friction_coef: float = 0.6
+    """Friction cone used to clip stance forces (below the MJCF's floor friction, 1.0)."""
+    swing_kp_nm_per_rad: float = 150.0
+    """Leg joint PD stiffness of a swinging leg. Ours: gym-quadruped's identified Aliengo
+    actuator model uses 25 under an RL policy; at 80 our swing feet lagged their path by
+    about 40 ms and landed late."""
+    swing_kd_nms_per_rad: float = 3.0
+    """Leg joint PD damping of a swinging leg."""
+    stance_kd_nms_per_rad: float = 1.0
+    """Leg joint damping added to the stance torques."""
+
+
+@dataclasses.dataclass(frozen=True)
+class FullBodyCfg:
+    """Everything the full-body simulation needs beyond the reduced model's configs."""
+
+    base: BaseCfg = BaseCfg()
+    """Reduced base model: its ``height_m`` (trunk top) sets the standing height."""
+    arm: ArmCfg = ArmCfg()
+    """Arm kinematics, joint limits, stow pose and IK constants (source of truth)."""
+    z1: Z1Cfg = Z1Cfg()
+    """Arm masses and actuator limits."""
+    gait: GaitCfg = GaitCfg()
+    """The trot controller."""
+    control_hz: float = 200.0
+    """Low-level control rate (paper, Sec. IV: low-level control at 200 Hz)."""
+    physics_dt_s: float = 0.001
+    """MuJoCo time step. Ours: 1 kHz; the joint PD law is re-evaluated every physics step
+    (as a motor driver does), the controller's targets are held for a control period."""
+    trunk_half_height_m: float = 0.056
+    """Half height of the trunk's collision box in the Aliengo MJCF (``size="... 0.056"``);
+    the arm is mounted on its top."""
+    max_arm_ik_step_rad: float = 0.25
+    """Largest DLS joint change per control step (a bound on the IK's own step, under
+    which the arm's velocity limit then clips)."""
+    fall_height_m: float = 0.18
+    """The robot has fallen when its trunk centre drops below this height..."""
+    fall_tilt_rad: float = math.radians(60.0)
+    """...or its trunk tilts more than this from upright."""
+    target_radius_m: float = 0.10
+    """Radius of the kinematic target sphere (``TargetCfg.radius_m``'s default)."""
+    target_height_m: float = 0.15
+    """Height of the target's centre (``TargetCfg.height_m``'s default)."""
+
+    @property
+    def stand_height_m(self) -> float:
+        """Trunk-centre height while standing: the trunk top at ``base.height_m``."""
+        return self.base.height_m - self.trunk_half_height_m
+
+    @property
+    def substeps(self) -> int:
+        """Physics steps per control step."""
+        return round(1.0 / (self.control_hz * self.physics_dt_s))
+
+
+def validate_fullbody(cfg: FullBodyCfg) -> FullBodyCfg:
+    """Refuse inconsistent settings with the field to change; returns ``cfg``."""
+    ratio = 1.0 / (cfg.control_hz * cfg.physics_dt_s)
+    if cfg.physics_dt_s <= 0 or abs(ratio - round(ratio)) > 1e-6 or round(ratio) < 1:
+        raise ValueError(
+            f"physics_dt_s={cfg.physics_dt_s} must divide the control period "
+            f"1/control_hz={1.0 / cfg.control_hz} a whole number of times"
+        )
+    if not 0.1 <= cfg.gait.period_s <= 1.0:
+        raise ValueError(f"gait.period_s={cfg.gait.period_s} must lie in [0.1, 1] s")
+    if len(cfg.z1.link_mass_kg) != 6 or len(cfg.z1.max_torque_nm) != 6:
+        raise ValueError("z1.link_mass_kg and z1.max_torque_nm need one value per joint (6)")
+    if cfg.stand_height_m <= 0.2:
+        raise ValueError(
+            f"base.height_m={cfg.base.height_m} puts the trunk centre at "
+            f"{cfg.stand_height_m:.3f} m, too low to walk; use at least 0.3"
+        )
+    return cfg

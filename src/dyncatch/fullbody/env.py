@@ -1,0 +1,158 @@
+"""``FullBodyEnv``: one ``mujoco.MjData`` stepped at the 200 Hz control rate.
+
+The physics state is the ``MjData``; the controllers' memory is ``GaitState`` plus the arm's
+PD targets; the constants are ``FullBodyCfg``. A batched evaluation can hold one env per
+worker (MuJoCo releases the GIL while stepping) or copy ``qpos``/``qvel`` in and out.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dyncatch.fullbody.arm_ik import ik_target_step, stow_target_step
+from dyncatch.fullbody.config import FullBodyCfg, validate_fullbody
+from dyncatch.fullbody.gait import (
+    GaitState,
+    JointTargets,
+    RobotObs,
+    initial_gait_state,
+    trot_step,
+    yaw_of,
+)
+from dyncatch.fullbody.legs import FOOT_RADIUS_M, leg_ik, nominal_feet_base
+from dyncatch.fullbody.model import build_model, robot_mass_kg
+
+
+class FullBodyEnv:
+    """Aliengo + arm + target. ``step(cmd, arm_goal_m)`` advances one control period."""
+
+    def __init__(self, cfg: FullBodyCfg | None = None):
+        import mujoco
+
+        cfg = FullBodyCfg() if cfg is None else cfg
+
+        self._mj = mujoco
+        self.cfg = validate_fullbody(cfg)
+        self.model, self.idx = build_model(cfg)
+        self.data = mujoco.MjData(self.model)
+        self._scratch = mujoco.MjData(self.model)
+        self.mass_kg = robot_mass_kg(self.model)
+        self._jacp = np.zeros((3, self.model.nv))
+        self.gait: GaitState | None = None
+        self.arm_q_des = np.asarray(cfg.arm.stow_rad, float)
+        self.time_s = 0.0
+
+    @property
+    def dt_s(self) -> float:
+        return 1.0 / self.cfg.control_hz
+
+    def reset(self, xy_m: tuple[float, float] = (0.0, 0.0), yaw_rad: float = 0.0) -> RobotObs:
+        """Stand the robot at ``xy_m`` facing ``yaw_rad``, feet under the hips, arm stowed."""
+        mj, d, idx = self._mj, self.data, self.idx
+        mj.mj_resetData(self.model, d)
+        d.qpos[:3] = (xy_m[0], xy_m[1], self.cfg.stand_height_m)
+        d.qpos[3:7] = (np.cos(yaw_rad / 2), 0.0, 0.0, np.sin(yaw_rad / 2))
+        feet = nominal_feet_base(self.cfg.stand_height_m - FOOT_RADIUS_M)
+        d.qpos[idx.leg_qpos] = np.concatenate([leg_ik(feet[i], i) for i in range(4)])
+        d.qpos[idx.arm_qpos] = self.cfg.arm.stow_rad
+        mj.mj_forward(self.model, d)
+        self.arm_q_des = np.asarray(self.cfg.arm.stow_rad, float)
+        self.time_s = 0.0
+        obs = self.observe()
+        self.gait = initial_gait_state(obs)
+        return obs
+
+    def observe(self) -> RobotObs:
+        mj, m, d, idx = self._mj, self.model, self.data, self.idx
+        rot = d.xmat[idx.base_body].reshape(3, 3).copy()
+        jac = np.zeros((4, 3, 3))
+        for leg, body in enumerate(idx.foot_body):
+            mj.mj_jacBody(m, d, self._jacp, None, body)
+            jac[leg] = self._jacp[:, idx.leg_dof[3 * leg : 3 * leg + 3]]
+        return RobotObs(
+            base_pos_m=d.qpos[:3].copy(),
+            base_rot=rot,
+            base_vel_mps=d.qvel[:3].copy(),
+            base_angvel_rps=rot @ d.qvel[3:6],
+            com_m=d.subtree_com[idx.base_body].copy(),
+            feet_m=d.xpos[idx.foot_body].copy(),
+            foot_jac=jac,
+            leg_q_rad=d.qpos[idx.leg_qpos].copy(),
+            mass_kg=self.mass_kg,
+        )
+
+    def gripper_m(self) -> np.ndarray:
+        """(3,) gripper point in the world."""
+        return self.data.site_xpos[self.idx.gripper_site].copy()
+
+    def set_target(self, pos_m: np.ndarray) -> None:
+        """Place the kinematic target sphere's centre at ``pos_m`` (3,)."""
+        self.data.mocap_pos[self.idx.target_mocap] = pos_m
+
+    def _arm_targets(self, goal_m: np.ndarray | None) -> np.ndarray:
+        """Next arm PD targets. The DLS step runs on the *commanded* joints (their gripper
+        and Jacobian from a scratch ``MjData`` at the measured base pose), as the JAX arm
+        does; the PD then tracks the converged targets, so its lag cannot wind the IK up."""
+        mj, m, idx = self._mj, self.model, self.idx
+        if goal_m is None:
+            return stow_target_step(self.arm_q_des, self.cfg.arm, self.dt_s)
+        k = self._scratch
+        k.qpos[:] = self.data.qpos
+        k.qpos[idx.arm_qpos] = self.arm_q_des
+        mj.mj_kinematics(m, k)
+        mj.mj_comPos(m, k)
+        mj.mj_jacSite(m, k, self._jacp, None, idx.gripper_site)
+        return ik_target_step(
+            self.arm_q_des,
+            self._jacp[:, idx.arm_dof],
+            k.site_xpos[idx.gripper_site].copy(),
+            np.asarray(goal_m, float),
+            self.cfg.arm,
+            self.dt_s,
+            self.cfg.max_arm_ik_step_rad,
+        )
+
+    def step(self, cmd: np.ndarray, arm_goal_m: np.ndarray | None = None) -> RobotObs:
+        """One control period. ``cmd`` (3,): forward, left (m/s, heading frame), yaw rate
+        (rad/s). ``arm_goal_m`` (3,): where the gripper should go (world), None to stow."""
+        if self.gait is None:
+            raise RuntimeError("call reset() before step()")
+        cmd = np.asarray(cmd, float)
+        obs = self.observe()
+        legs, self.gait = trot_step(obs, cmd, self.gait, self.cfg)
+        self.arm_q_des = self._arm_targets(arm_goal_m)
+        self._run_pd(legs)
+        self.time_s += self.dt_s
+        return self.observe()
+
+    def _run_pd(self, legs: JointTargets) -> None:
+        mj, m, d, idx, z1 = self._mj, self.model, self.data, self.idx, self.cfg.z1
+        # Gravity (and Coriolis) compensation of the arm, held over the control period.
+        arm_ff = d.qfrc_bias[idx.arm_dof].copy()
+        lo, hi = m.actuator_ctrlrange[:, 0], m.actuator_ctrlrange[:, 1]
+        for _ in range(self.cfg.substeps):
+            q, qd = d.qpos[idx.leg_qpos], d.qvel[idx.leg_dof]
+            tau_leg = legs.kp * (legs.q_des - q) + legs.kd * (legs.qd_des - qd) + legs.tau_ff
+            qa, qda = d.qpos[idx.arm_qpos], d.qvel[idx.arm_dof]
+            tau_arm = z1.kp_nm_per_rad * (self.arm_q_des - qa) - z1.kd_nms_per_rad * qda + arm_ff
+            d.ctrl[idx.leg_ctrl] = tau_leg
+            d.ctrl[idx.arm_ctrl] = tau_arm
+            np.clip(d.ctrl, lo, hi, out=d.ctrl)
+            mj.mj_step(m, d)
+
+    def fallen(self) -> bool:
+        """True once the trunk is below ``fall_height_m`` or tilted past ``fall_tilt_rad``."""
+        rot = self.data.xmat[self.idx.base_body].reshape(3, 3)
+        return bool(
+            self.data.qpos[2] < self.cfg.fall_height_m or rot[2, 2] < np.cos(self.cfg.fall_tilt_rad)
+        )
+
+    def base_velocity_heading(self) -> np.ndarray:
+        """(3,) forward and left velocity in the heading frame (m/s), yaw rate (rad/s)."""
+        d = self.data
+        rot = d.xmat[self.idx.base_body].reshape(3, 3)
+        yaw = yaw_of(rot)
+        c, s = np.cos(yaw), np.sin(yaw)
+        v = d.qvel[:2]
+        w = rot @ d.qvel[3:6]
+        return np.array([c * v[0] + s * v[1], -s * v[0] + c * v[1], w[2]])

