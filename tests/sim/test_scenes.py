@@ -21,6 +21,7 @@ from dyncatch.sim.frame import in_world_frame, recentre
 from dyncatch.sim.obstacles import Obstacles, signed_distance
 from dyncatch.sim.scenes import SCENES, get_scene
 from dyncatch.sim.state import Obs
+from dyncatch.sim.terrain import terrain_command
 from dyncatch.sim.validate import ConfigError, validate_world
 
 from .helpers import fixed_rollout, place, random_rollout, world_xy
@@ -275,3 +276,19 @@ def test_validation_names_the_bad_scene_constant(scene, change, field):
         validate_world(change(w))
     # A constant of another scene is not checked here.
     validate_world(change(w).with_scene("open_plane"))
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    yaw=st.floats(-math.pi, math.pi),
+    cmd=st.tuples(st.floats(-1.0, 2.0), st.floats(-1.0, 1.0), st.floats(-2.0, 2.0)),
+)
+def test_terrain_commands_stay_within_the_scaled_limits(yaw, cmd):
+    # The stairs' climb factor turns the velocity vector; the result is clipped again, so
+    # no body component passes its (scaled) limit and the observation bounds hold.
+    w = WorldCfg()
+    st_ = w.stairs
+    out = np.asarray(terrain_command(jnp.asarray(cmd, jnp.float32), jnp.float32(yaw), w.base, st_))
+    hi = np.array([2.0 * st_.speed_scale, st_.speed_scale, 2.0 * st_.yaw_rate_scale])
+    lo = -np.array([st_.speed_scale, st_.speed_scale, 2.0 * st_.yaw_rate_scale])
+    assert np.all(out <= hi + 1e-6) and np.all(out >= lo - 1e-6)

@@ -122,7 +122,7 @@ class Obs:
     """1.0 if the last camera frame saw the target."""
     scan_m: jax.Array = obs_field((8,))
     """s_env (eq. 3): range scan, the distance along each ray from the base centre to the
-    nearest wall, capped at ``scene.scan_range_m`` (the cap where nothing is hit),
+    nearest wall or obstacle, capped at ``scene.scan_range_m`` (the cap where nothing is hit),
     (scene.scan_rays,); 8 rays by default."""
 
     @classmethod

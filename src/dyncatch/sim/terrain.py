@@ -21,8 +21,9 @@ def terrain_command(
     command: jax.Array, yaw_rad: jax.Array, base: BaseCfg, terrain: TerrainCfg
 ) -> jax.Array:
     """The command (vx, vy, yaw rate) (3,) the gait can follow on this terrain, facing
-    ``yaw_rad``: clipped to the scaled limits, then its world-x component scaled by
-    ``climb_speed_scale``."""
+    ``yaw_rad``: clipped to the scaled limits, its world-x component scaled by
+    ``climb_speed_scale``, and clipped again (the scaling turns the vector, which can move a
+    body component past its limit: facing 30 deg, (1.6, -0.8) m/s becomes (.., -1.05))."""
     lin, yaw = terrain.speed_scale, terrain.yaw_rate_scale
     scale = jnp.stack([lin, lin, yaw])
     lo = jnp.stack([-base.max_backward_mps, -base.max_lateral_mps, -base.max_yaw_rate_rps])
@@ -30,7 +31,8 @@ def terrain_command(
     command = jnp.clip(command, scale * lo, scale * hi)
     world = rotate(command[:2], yaw_rad)
     world = world * jnp.stack([terrain.climb_speed_scale, 1.0])
-    return jnp.concatenate([rotate(world, -yaw_rad), command[2:]])
+    command = jnp.concatenate([rotate(world, -yaw_rad), command[2:]])
+    return jnp.clip(command, scale * lo, scale * hi)
 
 
 def terrain_checks(terrain: TerrainCfg, field: str) -> list[tuple[bool, str, str]]:
