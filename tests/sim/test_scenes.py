@@ -19,6 +19,7 @@ from dyncatch.sim.base import add_gait_noise, base_substep
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.frame import in_world_frame, recentre
 from dyncatch.sim.obstacles import Obstacles, signed_distance
+from dyncatch.sim.scan import robot_clearance_m
 from dyncatch.sim.scenes import SCENES, get_scene
 from dyncatch.sim.state import Obs
 from dyncatch.sim.terrain import terrain_command
@@ -102,6 +103,19 @@ class TestSensing:
         # Turned left by 90 deg, the first ray reads the box.
         s = place(s, robot_yaw=math.pi / 2)
         assert abs(float(env.observe(s, cfg).scan_m[0]) - expected[2]) < 1e-4
+
+    def test_the_clearance_eq_10_will_read(self):
+        cfg = WorldCfg().with_scene("room_0")
+        s = _start(cfg, self.OBST, robot_xy=(8.0, 8.0), robot_yaw=0.0)
+        r = cfg.base.radius_m
+        # The box's face is 1.5 m from the base centre, the cylinder 2.5 m, the walls 8 m.
+        np.testing.assert_allclose(robot_clearance_m(s, cfg), 1.5 - r, rtol=1e-5)
+        s = place(s, robot_xy=(8.0, 1.0))  # now a wall is nearest
+        np.testing.assert_allclose(robot_clearance_m(s, cfg), 1.0 - r, rtol=1e-5)
+        open_ = WorldCfg()
+        assert (
+            float(robot_clearance_m(jax.jit(env.reset)(jax.random.key(0), open_), open_)) == np.inf
+        )
 
     @pytest.mark.parametrize("scene", ["room_0", "woods_plane"])
     def test_a_target_behind_an_obstacle_is_not_seen(self, scene):
