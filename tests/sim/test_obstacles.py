@@ -153,3 +153,12 @@ def test_periodic_copies_are_seen_from_anywhere():
     moved = tree.shifted(jnp.array([1e4 + 3.0, -7.0]))
     assert bool(jnp.all(jnp.abs(moved.centre_xy_m) <= 12.5))
     np.testing.assert_allclose(moved.centre_xy_m, [[-3.0, 7.0]], atol=1e-3)
+
+
+def test_a_cylinders_only_layout_skips_the_box_test_with_the_same_result():
+    trees = _layout(cylinders=[(5.0, 0.0, 0.5), (4.0, 4.0, 1.0), (-3.0, 1.0, 0.2)])
+    dirs = _dirs(*np.arange(0, 360, 7.5))
+    both = ray_distances(trees, jnp.array([0.3, -0.2]), dirs)
+    only = ray_distances(trees.replace(boxes=False), jnp.array([0.3, -0.2]), dirs)
+    np.testing.assert_array_equal(only, both)
+    assert np.isfinite(np.asarray(both)).sum() >= 3

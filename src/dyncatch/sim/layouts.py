@@ -59,7 +59,7 @@ def woods_layout(key: jax.Array, cfg: WorldCfg) -> Obstacles:
     radius = wc.trunk_radius_min_m + u[:, 0] * (wc.trunk_radius_max_m - wc.trunk_radius_min_m)
     centre = _in_cells(u[:, 1:], ij * wc.spacing_m, wc.spacing_m, wc.gap_m, radius[:, None])
     period = jnp.asarray(wc.tile_m, jnp.float32)
-    return Obstacles(centre, jnp.zeros((n * n, 2), jnp.float32), radius, period)
+    return Obstacles(centre, jnp.zeros((n * n, 2), jnp.float32), radius, period, boxes=False)
 
 
 def room_checks(cfg: WorldCfg, count: int) -> list[tuple[bool, str, str]]:

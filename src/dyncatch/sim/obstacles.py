@@ -33,6 +33,8 @@ class Obstacles:
     """Radius of a cylinder, (K,); 0 for a box."""
     period_m: jax.Array
     """Side of the tile a periodic layout repeats on, (); 0 for none."""
+    boxes: bool = struct.field(pytree_node=False, default=True)
+    """Static: the layout may hold boxes. False (the woods) skips the boxes' ray test."""
 
     @property
     def is_box(self) -> jax.Array:
@@ -104,13 +106,9 @@ def ray_intervals(obs: Obstacles, origin_xy_m: jax.Array, dirs: jax.Array, infla
     each (N, K) in metres along the ray (negative behind the origin); t_in = +inf, t_out =
     -inf where the line misses."""
     rel = relative(obs, origin_xy_m)  # (K, 2)
-    # Cylinders: |t u - rel| = r.
-    r = obs.radius_m + inflate_m
-    b = dirs @ rel.T  # (N, K)
-    disc = b * b - (jnp.sum(rel * rel, axis=-1) - r * r)
-    sq = jnp.sqrt(jnp.maximum(disc, 0.0))
-    hit_c = disc >= 0.0
-    tc_in, tc_out = jnp.where(hit_c, b - sq, _INF), jnp.where(hit_c, b + sq, -_INF)
+    tc_in, tc_out = _cylinder_intervals(obs, rel, dirs, inflate_m)
+    if not obs.boxes:
+        return tc_in, tc_out
     # Boxes: the slab test per axis.
     h = (obs.half_m + inflate_m)[None]  # (1, K, 2)
     u = dirs[:, None, :]  # (N, 1, 2)
@@ -125,6 +123,17 @@ def ray_intervals(obs: Obstacles, origin_xy_m: jax.Array, dirs: jax.Array, infla
     tb_in, tb_out = jnp.where(hit_b, tb_in, _INF), jnp.where(hit_b, tb_out, -_INF)
     box = obs.is_box[None]
     return jnp.where(box, tb_in, tc_in), jnp.where(box, tb_out, tc_out)
+
+
+def _cylinder_intervals(obs: Obstacles, rel: jax.Array, dirs: jax.Array, inflate_m):
+    """(t_in, t_out) (N, K) of rays from the origin along ``dirs`` (N, 2) through cylinders
+    at ``rel`` (K, 2) from it: |t u - rel| = r."""
+    r = obs.radius_m + inflate_m
+    b = dirs @ rel.T  # (N, K)
+    disc = b * b - (jnp.sum(rel * rel, axis=-1) - r * r)
+    sq = jnp.sqrt(jnp.maximum(disc, 0.0))
+    hit = disc >= 0.0
+    return jnp.where(hit, b - sq, _INF), jnp.where(hit, b + sq, -_INF)
 
 
 def ray_distances(obs: Obstacles, origin_xy_m: jax.Array, dirs: jax.Array) -> jax.Array:
