@@ -15,6 +15,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
+from operator import attrgetter
 from typing import TYPE_CHECKING
 
 import jax
@@ -60,24 +61,13 @@ class Scene:
     for the active scene."""
 
 
-def _rough(world: WorldCfg) -> TerrainCfg:
-    return world.rough
-
-
-def _stairs(world: WorldCfg) -> TerrainCfg:
-    return world.stairs
-
-
-_TERRAIN_FIELD = {_rough: "rough", _stairs: "stairs"}
-
-
-def _woods_validate(terrain: TerrainFn | None) -> Callable[[WorldCfg], list[Check]]:
+def _woods_validate(terrain_field: str | None) -> Callable[[WorldCfg], list[Check]]:
     def checks(world: WorldCfg) -> list[Check]:
         from dyncatch.sim.terrain import terrain_checks
 
         out = woods_checks(world)
-        if terrain is not None:
-            out += terrain_checks(terrain(world), _TERRAIN_FIELD[terrain])
+        if terrain_field is not None:
+            out += terrain_checks(getattr(world, terrain_field), terrain_field)
         return out
 
     return checks
@@ -96,16 +86,18 @@ def _room(count: int, name: str) -> Scene:
     )
 
 
-def _woods(terrain: TerrainFn | None, name: str, ground: str) -> Scene:
+def _woods(terrain_field: str | None, name: str, ground: str) -> Scene:
+    """Woods whose ground is the ``TerrainCfg`` field ``terrain_field`` of ``WorldCfg``
+    (None: flat)."""
     return Scene(
         name,
         f"unbounded woods, tree trunks at 0.04 per m^2 on {ground}",
         walls=False,
         layout=woods_layout,
-        terrain=terrain,
+        terrain=None if terrain_field is None else attrgetter(terrain_field),
         duration_s=40.0,
         scan_rays=32,
-        validate=_woods_validate(terrain),
+        validate=_woods_validate(terrain_field),
     )
 
 
@@ -127,8 +119,8 @@ SCENES: dict[str, Scene] = {
         _room(4, "room_4"),
         _room(8, "room_8"),
         _woods(None, "woods_plane", "flat ground"),
-        _woods(_rough, "woods_rough", "rough ground (slower, noisier gait)"),
-        _woods(_stairs, "woods_stairs", "stairs climbing along world x"),
+        _woods("rough", "woods_rough", "rough ground (slower, noisier gait)"),
+        _woods("stairs", "woods_stairs", "stairs climbing along world x"),
     )
 }
 
