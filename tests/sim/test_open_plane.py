@@ -26,7 +26,16 @@ STILL = jnp.zeros(3)
 
 
 def test_registry():
-    assert list(SCENES) == ["arena", "open_plane"]
+    assert list(SCENES) == [
+        "arena",
+        "open_plane",
+        "room_0",
+        "room_4",
+        "room_8",
+        "woods_plane",
+        "woods_rough",
+        "woods_stairs",
+    ]
     assert get_scene("arena").walls and not get_scene("open_plane").walls
     with pytest.raises(ValueError, match="'moon'.*arena, open_plane"):
         get_scene("moon")

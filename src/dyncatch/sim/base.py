@@ -3,7 +3,7 @@
 The gait controller is modelled by what matters to the high-level policy: commanded
 (vx, vy, yaw rate) are clipped to the base's limits and tracked with a first-order lag
 under acceleration limits, plus small gait-induced velocity noise. Walls, where the scene
-has them, stop the base.
+has them, and obstacles stop the base; a terrain (``sim.terrain``) changes the gait.
 Velocities are in the base frame: x forward, y to the left.
 """
 
@@ -14,7 +14,10 @@ import jax.numpy as jnp
 
 from dyncatch.sim.config import ArenaCfg, BaseCfg
 from dyncatch.sim.geometry import rotate, wrap_angle
+from dyncatch.sim.obstacles import Obstacles, push_out
+from dyncatch.sim.scene_cfg import TerrainCfg
 from dyncatch.sim.state import RobotState
+from dyncatch.sim.terrain import terrain_command
 
 
 def command_low(cfg: BaseCfg) -> jax.Array:
@@ -36,13 +39,18 @@ def clip_command(command: jax.Array, cfg: BaseCfg) -> jax.Array:
     return jnp.clip(command, command_low(cfg), command_high(cfg))
 
 
-def add_gait_noise(robot: RobotState, noise: jax.Array, cfg: BaseCfg) -> RobotState:
-    """Perturb the base velocity by standard-normal ``noise`` (3,) scaled by the config.
+def add_gait_noise(
+    robot: RobotState, noise: jax.Array, cfg: BaseCfg, terrain: TerrainCfg | None = None
+) -> RobotState:
+    """Perturb the base velocity by standard-normal ``noise`` (3,) scaled by the config (and
+    the terrain's ``noise_scale``).
 
     The result stays inside the command limits: the gait cannot run faster than its top speed.
     """
     vel = jnp.concatenate([robot.vel_body_mps, robot.yaw_rate_rps[None]])
     scale = jnp.stack([cfg.gait_noise_mps, cfg.gait_noise_mps, cfg.gait_noise_yaw_rps])
+    if terrain is not None:
+        scale = scale * terrain.noise_scale
     vel = clip_command(vel + scale * noise, cfg)
     return robot.replace(vel_body_mps=vel[:2], yaw_rate_rps=vel[2])
 
@@ -55,16 +63,23 @@ def base_substep(
     origin_xy_m: jax.Array,
     dt_s: float,
     walls: bool,
+    obstacles: Obstacles | None = None,
+    terrain: TerrainCfg | None = None,
 ) -> RobotState:
     """Advance the base by one physics sub-step under a clipped ``command`` (3,); where the
-    scene has walls (the square, placed in the local frame by ``origin_xy_m``) they stop it."""
+    scene has walls (the square, placed in the local frame by ``origin_xy_m``) or
+    ``obstacles`` they stop it, and a ``terrain`` limits and slows its gait."""
+    lag_s = cfg.lag_s
+    if terrain is not None:
+        command = terrain_command(command, robot.yaw_rad, cfg, terrain)
+        lag_s = lag_s * terrain.lag_scale
     lin_step = jnp.clip(
-        (command[:2] - robot.vel_body_mps) * (dt_s / cfg.lag_s),
+        (command[:2] - robot.vel_body_mps) * (dt_s / lag_s),
         -cfg.max_lin_accel_mps2 * dt_s,
         cfg.max_lin_accel_mps2 * dt_s,
     )
     yaw_step = jnp.clip(
-        (command[2] - robot.yaw_rate_rps) * (dt_s / cfg.lag_s),
+        (command[2] - robot.yaw_rate_rps) * (dt_s / lag_s),
         -cfg.max_yaw_accel_rps2 * dt_s,
         cfg.max_yaw_accel_rps2 * dt_s,
     )
@@ -77,6 +92,10 @@ def base_substep(
     xy = robot.xy_m + rotate(vel_body, robot.yaw_rad) * dt_s
     # A wall stops the body, not the gait: the tracked velocity (what the legs do, and what
     # the policy observes) stays within the command limits while the base slides along it.
+    # Obstacles first: the layouts keep them farther from the walls than the footprint's
+    # diameter, so the wall clip below never pushes the body back into one.
+    if obstacles is not None:
+        xy, _ = push_out(obstacles, xy, cfg.radius_m)
     if walls:
         xy = jnp.clip(xy, cfg.radius_m - origin_xy_m, arena.size_m - cfg.radius_m - origin_xy_m)
     return robot.replace(

@@ -16,6 +16,8 @@ from flax import struct
 
 from dyncatch.sim.behaviors import TargetCfg
 from dyncatch.sim.fields import static
+from dyncatch.sim.scene_cfg import ROUGH, STAIRS, AvoidCfg, RoomCfg, TerrainCfg, WoodsCfg
+from dyncatch.sim.scenes import get_scene
 from dyncatch.utils.cli_types import SceneName
 
 
@@ -32,8 +34,9 @@ class SceneCfg:
 
     name: SceneName = static("open_plane")
     """Scene, a key of ``dyncatch.sim.scenes.SCENES``: ``open_plane`` (the paper's Table I
-    setting, the default since issue 12) or ``arena`` (walled 16 m square, the first
-    slice's world); ``--scene`` on every command."""
+    setting, the default since issue 12), ``arena`` (walled 16 m square, the first slice's
+    world), ``room_0``/``room_4``/``room_8`` or ``woods_plane``/``woods_rough``/
+    ``woods_stairs`` (docs/scenes.md); ``--scene`` on every command."""
     scan_rays: int = static(8)
     """Rays of the range scan s_env, evenly spread around the base heading (first: ahead)."""
     scan_range_m: float = 10.0
@@ -202,6 +205,13 @@ class WorldCfg:
 
     scene: SceneCfg = SceneCfg()
     arena: ArenaCfg = ArenaCfg()
+    room: RoomCfg = RoomCfg()
+    woods: WoodsCfg = WoodsCfg()
+    rough: TerrainCfg = ROUGH
+    """The gait on rough ground (``woods_rough``)."""
+    stairs: TerrainCfg = STAIRS
+    """The gait on stairs (``woods_stairs``)."""
+    avoid: AvoidCfg = AvoidCfg()
     base: BaseCfg = BaseCfg()
     arm: ArmCfg = ArmCfg()
     target: TargetCfg = TargetCfg()
@@ -219,4 +229,14 @@ class WorldCfg:
         return self.replace(target=self.target.replace(behavior=behavior))
 
     def with_scene(self, scene: str) -> WorldCfg:
+        """The same world in another scene (nothing else changes: the scan keeps its rays)."""
         return self.replace(scene=self.scene.replace(name=scene))
+
+    def for_scene(self, scene: str) -> WorldCfg:
+        """The world in ``scene`` with that scene's own episode length and ray count
+        (``Scene.duration_s``, ``Scene.scan_rays``: 40 s and 32 rays in rooms and woods)."""
+        s = get_scene(scene)
+        return self.replace(
+            scene=self.scene.replace(name=scene, scan_rays=s.scan_rays),
+            episode=self.episode.replace(duration_s=s.duration_s),
+        )

@@ -17,6 +17,7 @@ from dyncatch.sim.behaviors import get_behavior
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.frame import recentre
 from dyncatch.sim.geometry import bearing, rotate, world_to_body
+from dyncatch.sim.obstacles import Obstacles, free_heading, line_of_sight, no_obstacles, push_out
 from dyncatch.sim.reward import reward_terms, total_reward
 from dyncatch.sim.scan import range_scan
 from dyncatch.sim.scenes import get_scene
@@ -25,6 +26,9 @@ from dyncatch.sim.state import EnvState, Obs, RobotState, TargetState
 from dyncatch.sim.target import move, steer
 
 _ROBOT_PLACEMENT_TRIES = 8
+_LAYOUT_STREAM = 0x0B5
+"""The obstacle layout's key is folded from the reset key, so the scenes without obstacles
+draw exactly what they drew before obstacles existed."""
 
 
 def gripper_world(robot: RobotState, gripper_base: jax.Array) -> jax.Array:
@@ -61,15 +65,31 @@ def _place_robot(key: jax.Array, target_xy: jax.Array, cfg: WorldCfg) -> jax.Arr
     return jnp.clip(cands[jnp.argmax(ok)], lo, hi)
 
 
+def obstacles_in_play(state: EnvState, cfg: WorldCfg) -> Obstacles | None:
+    """The episode's obstacles, or None (statically) in a scene that has none."""
+    return None if get_scene(cfg.scene.name).layout is None else state.obstacles
+
+
+def _line_of_sight(obstacles, robot: RobotState, target: TargetState):
+    return None if obstacles is None else line_of_sight(obstacles, robot.xy_m, target.xy_m)
+
+
 def reset(key: jax.Array, cfg: WorldCfg) -> EnvState:
-    """A new episode: target placed by its behaviour, robot 2-6 m away facing anywhere; the
-    state is returned in the frame centred on the robot (``sim.frame``)."""
+    """A new episode: target placed by its behaviour, robot 2-6 m away facing anywhere, both
+    moved out of the scene's obstacles (drawn afresh); the state is returned in the frame
+    centred on the robot (``sim.frame``)."""
     behavior = get_behavior(cfg.target.behavior)
+    scene = get_scene(cfg.scene.name)
+    obstacles = None
+    if scene.layout is not None:
+        obstacles = scene.layout(jax.random.fold_in(key, _LAYOUT_STREAM), cfg)
     k_target, k_speed, k_place, k_yaw, k_sense, k_next = jax.random.split(key, 6)
     t_xy, t_heading, behavior_state = behavior.init_state(k_target, cfg)
     speed = jax.random.uniform(
         k_speed, (), minval=cfg.target.speed_min_mps, maxval=cfg.target.speed_max_mps
     )
+    if obstacles is not None:
+        t_xy, _ = push_out(obstacles, t_xy, cfg.target.radius_m)
     target = TargetState(
         xy_m=t_xy,
         heading_rad=t_heading,
@@ -78,8 +98,11 @@ def reset(key: jax.Array, cfg: WorldCfg) -> EnvState:
         behavior_state=behavior_state,
     )
     q = jnp.asarray(cfg.arm.stow_rad, jnp.float32)
+    r_xy = _place_robot(k_place, t_xy, cfg)
+    if obstacles is not None:
+        r_xy, _ = push_out(obstacles, r_xy, cfg.base.radius_m)
     robot = RobotState(
-        xy_m=_place_robot(k_place, t_xy, cfg),
+        xy_m=r_xy,
         yaw_rad=jax.random.uniform(k_yaw, (), minval=-jnp.pi, maxval=jnp.pi),
         vel_body_mps=jnp.zeros(2),
         yaw_rate_rps=jnp.zeros(()),
@@ -90,7 +113,15 @@ def reset(key: jax.Array, cfg: WorldCfg) -> EnvState:
     step0 = jnp.zeros((), jnp.int32)
     # The reset frame counts as a tick; start the clock one step early so its age reads 0.
     sensor = initial_sensor(robot).replace(time_since_seen_s=jnp.full((), -cfg.episode.dt_s))
-    sensor = sensor_tick(sensor, robot, target, step0, jax.random.normal(k_sense, (2,)), cfg)
+    sensor = sensor_tick(
+        sensor,
+        robot,
+        target,
+        step0,
+        jax.random.normal(k_sense, (2,)),
+        cfg,
+        _line_of_sight(obstacles, robot, target),
+    )
     state = EnvState(
         robot=robot,
         target=target,
@@ -100,11 +131,14 @@ def reset(key: jax.Array, cfg: WorldCfg) -> EnvState:
         success=jnp.zeros((), bool),
         distance_m=jnp.linalg.norm(t_xy - robot.xy_m),
         origin_xy_m=jnp.zeros(2),
+        obstacles=no_obstacles() if obstacles is None else obstacles,
     )
     return recentre(state)
 
 
-def _physics_substep(robot, target, command, best_err, origin, cfg: WorldCfg, dt_s, reflect):
+def _physics_substep(
+    robot, target, command, best_err, origin, cfg: WorldCfg, dt_s, reflect, obstacles
+):
     gripper_base = gripper_in_base(robot.arm_q_rad, cfg.arm, cfg.base)
     best_err = jnp.minimum(best_err, catch_error_m(gripper_world(robot, gripper_base), target, cfg))
     rel = target.xy_m - robot.xy_m
@@ -116,11 +150,20 @@ def _physics_substep(robot, target, command, best_err, origin, cfg: WorldCfg, dt
     )
     active = jnp.sum(rel * rel) <= cfg.arm.activation_distance_m**2
     q = arm_substep(robot.arm_q_rad, gripper_base, goal_base, active, cfg.arm, dt_s)
-    walls = get_scene(cfg.scene.name).walls
+    scene = get_scene(cfg.scene.name)
+    walls, terrain = scene.walls, None if scene.terrain is None else scene.terrain(cfg)
     robot = base_substep(
-        robot.replace(arm_q_rad=q), command, cfg.base, cfg.arena, origin, dt_s, walls
+        robot.replace(arm_q_rad=q),
+        command,
+        cfg.base,
+        cfg.arena,
+        origin,
+        dt_s,
+        walls,
+        obstacles,
+        terrain,
     )
-    target = move(target, cfg.target, cfg.arena, origin, dt_s, reflect, walls)
+    target = move(target, cfg.target, cfg.arena, origin, dt_s, reflect, walls, obstacles)
     return robot, target, best_err
 
 
@@ -133,7 +176,13 @@ def observe(state: EnvState, cfg: WorldCfg) -> Obs:
         target_obs_body_m=world_to_body(sensor.obs_xy_m - robot.xy_m, robot.yaw_rad),
         time_since_seen_s=sensor.time_since_seen_s,
         visible=sensor.visible.astype(jnp.float32),
-        scan_m=range_scan(robot.xy_m + state.origin_xy_m, robot.yaw_rad, cfg),
+        scan_m=range_scan(
+            robot.xy_m + state.origin_xy_m,
+            robot.yaw_rad,
+            cfg,
+            obstacles_in_play(state, cfg),
+            robot.xy_m,
+        ),
     )
 
 
@@ -145,13 +194,25 @@ def step(state: EnvState, action: jax.Array, cfg: WorldCfg):
     ``catch_error_m`` (the smallest catch-point error over the step's sub-steps).
     """
     behavior = get_behavior(cfg.target.behavior)
+    scene = get_scene(cfg.scene.name)
+    obstacles = obstacles_in_play(state, cfg)
     key, k_gait, k_behavior, k_sense = jax.random.split(state.key, 4)
     dt_s = cfg.episode.dt_s
     n_sub = cfg.episode.physics_substeps
     command = clip_command(action, cfg.base)
 
-    robot = add_gait_noise(state.robot, jax.random.normal(k_gait, (3,)), cfg.base)
+    terrain = None if scene.terrain is None else scene.terrain(cfg)
+    robot = add_gait_noise(state.robot, jax.random.normal(k_gait, (3,)), cfg.base, terrain)
     heading, behavior_state = behavior.desired_heading(state.target, robot, cfg, k_behavior)
+    if obstacles is not None and not behavior.reflects_off_walls:
+        heading = free_heading(
+            obstacles,
+            state.target.xy_m,
+            heading,
+            cfg.target.radius_m,
+            cfg.avoid.lookahead_m,
+            cfg.avoid.directions,
+        )
     target = steer(state.target.replace(behavior_state=behavior_state), heading, cfg.target, dt_s)
 
     # The catch is checked at every sub-step (200 Hz), before each arm update and at the end.
@@ -166,6 +227,7 @@ def step(state: EnvState, action: jax.Array, cfg: WorldCfg):
             cfg,
             dt_s / n_sub,
             behavior.reflects_off_walls,
+            obstacles,
         )
     gripper = gripper_world(robot, gripper_in_base(robot.arm_q_rad, cfg.arm, cfg.base))
     best_err = jnp.minimum(best_err, catch_error_m(gripper, target, cfg))
@@ -174,7 +236,13 @@ def step(state: EnvState, action: jax.Array, cfg: WorldCfg):
 
     step_count = state.step + 1
     sensor = sensor_tick(
-        state.sensor, robot, target, step_count, jax.random.normal(k_sense, (2,)), cfg
+        state.sensor,
+        robot,
+        target,
+        step_count,
+        jax.random.normal(k_sense, (2,)),
+        cfg,
+        _line_of_sight(obstacles, robot, target),
     )
     distance = jnp.linalg.norm(target.xy_m - robot.xy_m)
     terms = reward_terms(
@@ -194,6 +262,7 @@ def step(state: EnvState, action: jax.Array, cfg: WorldCfg):
             success=success,
             distance_m=distance,
             origin_xy_m=state.origin_xy_m,
+            obstacles=state.obstacles,
         )
     )
     # Eq. 8 read as a terminal event ends the episode at the catch; read as a state

@@ -5,8 +5,10 @@ After each reset and step the frame is moved to the robot (``recentre``): the ro
 position. Physics, sensing, the catch test and the observations only ever use positions
 relative to the robot, so they are as exact 10 km from the world origin as at it; world-fixed
 features (the walls, the bounce target's square, the circle's centre) are placed in the frame
-by subtracting ``origin_xy_m``. Behaviour states keep world-fixed points in fields whose
-names end in ``xy_m``; ``recentre`` moves them with the frame.
+by subtracting ``origin_xy_m``; obstacles are stored in the frame and move with it (a periodic
+layout's copies are kept within half a period of the robot). Behaviour states keep
+world-fixed points in fields whose names end in ``xy_m``; ``recentre`` moves them with the
+frame.
 """
 
 from __future__ import annotations
@@ -59,7 +61,11 @@ def shift(state: EnvState, d_m: jax.Array) -> EnvState:
         pending_robot_pose=_shift_pose(s.pending_robot_pose, d_m),
     )
     return state.replace(
-        robot=robot, target=target, sensor=sensor, origin_xy_m=state.origin_xy_m + d_m
+        robot=robot,
+        target=target,
+        sensor=sensor,
+        origin_xy_m=state.origin_xy_m + d_m,
+        obstacles=state.obstacles.shifted(d_m),
     )
 
 

@@ -4,7 +4,7 @@ A bound is stated only where the simulator guarantees it for every action, every
 and any number of steps; elsewhere the bound is infinite. What each finite bound rests on:
 
 - ``scan_m`` in [0, scene.scan_range_m]: every ray's distance is clipped to it
-  (``sim.scan.range_scan``).
+  (``sim.scan.range_scan``), walls and obstacles alike.
 - ``visible`` in {0, 1}: by construction.
 - ``time_since_seen_s`` >= 0: the clock starts at -dt and the reset frame's tick adds dt (or
   sets ``lag * dt`` on a sighting), so it reads exactly 0 after reset and only grows from
@@ -14,7 +14,9 @@ and any number of steps; elsewhere the bound is infinite. What each finite bound
   default is 0.005 s against 0.1 s) and the acceleration limits are >= 0: the velocity starts
   at 0, gait noise is clipped to the limits, and each sub-step moves it a fraction
   ``dt / lag <= 0.999`` of the way toward a clipped command, never past it (the 0.1 % leaves
-  room for float32 rounding). With a longer sub-step the lag overshoots, so no bound.
+  room for float32 rounding). With a longer sub-step the lag overshoots, so no bound. A
+  terrain (rooms and woods, ``sim.terrain``) only lowers the limits and lengthens the lag
+  (``validate_world`` refuses anything else), so the bound holds there too.
 - ``target_obs_body_m``: none. Camera noise is Gaussian
   (``sensor.noise_m``) and a behaviour's ``init_state`` places the target, so a bound would
   be a promise made for behaviours registered later.

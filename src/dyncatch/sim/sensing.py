@@ -2,7 +2,8 @@
 
 A frame is captured every ``round(control_hz / rate_hz)`` control steps, starting at reset.
 It sees the target if the target's bearing lies within half the field of view of the base
-heading and it is within range; with latency, the frame is delivered ``latency`` later.
+heading, it is within range and, among obstacles, in the line of sight (an occluded target is
+not detected); with latency, the frame is delivered ``latency`` later.
 Only delivered frames change what the policy observes.
 """
 
@@ -64,15 +65,19 @@ def sensor_tick(
     step: jax.Array,
     noise: jax.Array,
     cfg: WorldCfg,
+    line_of_sight: jax.Array | None = None,
 ) -> SensorState:
     """Update the sensor at control step ``step``, after the world moved.
 
-    ``noise`` is (2,) standard normal, scaled by ``sensor.noise_m``.
+    ``noise`` is (2,) standard normal, scaled by ``sensor.noise_m``; ``line_of_sight`` ()
+    bool, where given, is whether no obstacle hides the target (``sim.obstacles``).
     """
     period = period_steps(cfg)
     lag = latency_steps(cfg)
     capture = step % period == 0
     seen_now = in_view(robot, target.xy_m, cfg)
+    if line_of_sight is not None:
+        seen_now = seen_now & line_of_sight
     sensor = sensor.replace(
         pending_xy_m=jnp.where(
             capture, target.xy_m + cfg.sensor.noise_m * noise, sensor.pending_xy_m

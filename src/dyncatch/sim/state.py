@@ -10,6 +10,8 @@ import jax
 import jax.numpy as jnp
 from flax import struct
 
+from dyncatch.sim.obstacles import Obstacles
+
 
 @struct.dataclass
 class RobotState:
@@ -91,6 +93,9 @@ class EnvState:
     """World position of the frame every position above is stored in, (2,). After each
     reset and step the frame is re-centred on the robot (its xy is then 0), so a catch far
     from the world origin is judged as exactly as one at it."""
+    obstacles: Obstacles
+    """This episode's obstacles in the same frame (K = 0 where the scene has none; K is
+    fixed per scene, so batches stack)."""
 
 
 def obs_field(shape: tuple[int, ...]):
@@ -117,7 +122,7 @@ class Obs:
     """1.0 if the last camera frame saw the target."""
     scan_m: jax.Array = obs_field((8,))
     """s_env (eq. 3): range scan, the distance along each ray from the base centre to the
-    nearest wall, capped at ``scene.scan_range_m`` (the cap where nothing is hit),
+    nearest wall or obstacle, capped at ``scene.scan_range_m`` (the cap where nothing is hit),
     (scene.scan_rays,); 8 rays by default."""
 
     @classmethod

@@ -1,4 +1,5 @@
-"""The target's body: turn toward the behaviour's heading, move at the cap, meet the walls."""
+"""The target's body: turn toward the behaviour's heading, move at the cap, meet the walls
+and the obstacles."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ import jax.numpy as jnp
 
 from dyncatch.sim.config import ArenaCfg, TargetCfg
 from dyncatch.sim.geometry import wrap_angle
+from dyncatch.sim.obstacles import Obstacles, push_out, reflect_heading
 from dyncatch.sim.state import TargetState
 
 
@@ -27,10 +29,23 @@ def move(
     dt_s: float,
     reflect: bool,
     walls: bool,
+    obstacles: Obstacles | None = None,
 ) -> TargetState:
     """Integrate one sub-step. The square's sides (placed in the local frame by
     ``origin_xy_m``) mirror a reflecting target in every scene; other targets only meet
-    them where they are walls, and then slide along them."""
+    them where they are walls, and then slide along them. ``obstacles`` stop every target:
+    it slides along them, and a reflecting one's heading is mirrored off them."""
+    target = _meet_square(target, cfg, arena, origin_xy_m, dt_s, reflect, walls)
+    if obstacles is None:
+        return target
+    # Last, so nothing moves the body back in: in rooms the obstacles keep clear of the walls
+    # (the clip cannot undo this), in the woods the bounce square is only virtual.
+    xy, touched = push_out(obstacles, target.xy_m, cfg.radius_m)
+    heading = reflect_heading(target.heading_rad, touched) if reflect else target.heading_rad
+    return target.replace(xy_m=xy, heading_rad=heading)
+
+
+def _meet_square(target, cfg, arena, origin_xy_m, dt_s, reflect, walls) -> TargetState:
     c, s = jnp.cos(target.heading_rad), jnp.sin(target.heading_rad)
     xy = target.xy_m + target.speed_mps * dt_s * jnp.stack([c, s])
     lo = cfg.radius_m - origin_xy_m

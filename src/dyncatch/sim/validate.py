@@ -89,6 +89,15 @@ def validate_world(cfg: WorldCfg) -> WorldCfg:
         (a.ik_damping > 0, "arm.ik_damping", "must be positive"),
         (a.catch_radius_m > 0, "arm.catch_radius_m", "must be positive"),
     ]
+    # The active scene checks its own constants (layout, terrain), as a behaviour does.
+    scene = SCENES.get(cfg.scene.name)
+    if scene is not None:
+        checks += scene.validate(cfg)
+    if scene is not None and scene.layout is not None:
+        checks += [
+            (cfg.avoid.lookahead_m >= 0, "avoid.lookahead_m", "must be >= 0"),
+            (cfg.avoid.directions >= 1, "avoid.directions", "need at least one"),
+        ]
     for ok, field, why in checks:
         if not ok:
             raise ConfigError(f"bad world config: {field}: {why}")

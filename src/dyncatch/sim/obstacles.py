@@ -1,0 +1,195 @@
+"""Obstacles on the floor: axis-aligned boxes and vertical cylinders, in a fixed-shape pytree.
+
+One ``Obstacles`` holds K obstacles of one environment (K is fixed by the scene, so a batch
+of them jits and vmaps like the plane); a box has half sides ``half_m`` and radius 0, a
+cylinder half sides 0 and a radius. Centres are stored in the local frame (``sim.frame``)
+and move with it. A layout with ``period_m`` > 0 (the woods) repeats over the whole plane
+with that period: every query uses the copy of each obstacle nearest its query point, and
+``shifted`` keeps the stored centres within half a period of the robot.
+
+Everything here is analytic and vectorised over obstacles (and rays): signed distances and
+push-out for collision, entry/exit distances along rays for the range scan, the camera's line
+of sight and the target's free-direction rule.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+from flax import struct
+
+_INF = jnp.float32(jnp.inf)
+_PARALLEL = 1e-12
+"""A ray direction component below this is parallel to the box's sides."""
+
+
+@struct.dataclass
+class Obstacles:
+    centre_xy_m: jax.Array
+    """Centres in the local frame, (K, 2)."""
+    half_m: jax.Array
+    """Half sides of a box along x and y, (K, 2); zeros for a cylinder."""
+    radius_m: jax.Array
+    """Radius of a cylinder, (K,); 0 for a box."""
+    period_m: jax.Array
+    """Side of the tile a periodic layout repeats on, (); 0 for none."""
+    boxes: bool = struct.field(pytree_node=False, default=True)
+    """Static: the layout may hold boxes. False (the woods) skips the boxes' ray test."""
+
+    @property
+    def is_box(self) -> jax.Array:
+        """(K,) bool."""
+        return jnp.any(self.half_m > 0.0, axis=-1)
+
+    def shifted(self, d_m: jax.Array) -> Obstacles:
+        """The same obstacles in a frame moved by ``d_m`` (2,); a periodic layout's centres
+        are brought within half a period of the new frame's origin."""
+        return self.replace(centre_xy_m=nearest_image(self.centre_xy_m - d_m, self.period_m))
+
+
+def no_obstacles() -> Obstacles:
+    """The empty layout (K = 0) of a scene without obstacles."""
+    z = jnp.zeros((0,), jnp.float32)
+    return Obstacles(
+        centre_xy_m=jnp.zeros((0, 2), jnp.float32),
+        half_m=jnp.zeros((0, 2), jnp.float32),
+        radius_m=z,
+        period_m=jnp.zeros((), jnp.float32),
+    )
+
+
+def nearest_image(offset_m: jax.Array, period_m: jax.Array) -> jax.Array:
+    """Offsets (..., 2) reduced to the nearest copy under the period (unchanged if 0)."""
+    periodic = period_m > 0.0
+    p = jnp.where(periodic, period_m, 1.0)
+    return jnp.where(periodic, offset_m - p * jnp.round(offset_m / p), offset_m)
+
+
+def relative(obs: Obstacles, xy_m: jax.Array) -> jax.Array:
+    """Centre minus ``xy_m`` (2,) for every obstacle, nearest copy, (K, 2)."""
+    return nearest_image(obs.centre_xy_m - xy_m, obs.period_m)
+
+
+def signed_distance(obs: Obstacles, xy_m: jax.Array, inflate_m=0.0):
+    """(K,) distance from ``xy_m`` (2,) to each obstacle's surface less ``inflate_m``
+    (negative inside), and (K, 2) the outward unit normals at the nearest surface point."""
+    q = -relative(obs, xy_m)  # the point relative to each centre
+    h = obs.half_m
+    v = q - jnp.clip(q, -h, h)
+    dist2 = jnp.sum(v * v, axis=-1)
+    outside = dist2 > 0.0
+    dist = jnp.sqrt(jnp.where(outside, dist2, 1.0))
+    # Inside a box's core (or at a cylinder's axis): leave by the nearest side.
+    pen = jnp.abs(q) - h
+    along_x = pen[:, 0] >= pen[:, 1]
+    sign = jnp.where(q >= 0.0, 1.0, -1.0)
+    n_in = jnp.where(along_x[:, None], sign * jnp.array([1.0, 0.0]), sign * jnp.array([0.0, 1.0]))
+    normal = jnp.where(outside[:, None], v / dist[:, None], n_in)
+    depth = jnp.where(outside, dist, jnp.max(pen, axis=-1))
+    return depth - obs.radius_m - inflate_m, normal
+
+
+def push_out(obs: Obstacles, xy_m: jax.Array, radius_m) -> tuple[jax.Array, jax.Array]:
+    """A body of ``radius_m`` at ``xy_m`` (2,) moved out of every obstacle along the normal
+    (it slides along the surface): the new position (2,) and the normals of the obstacles it
+    touched, zero elsewhere, (K, 2). Exact while no point is within ``radius_m`` of two
+    obstacles at once, which the layouts' gaps guarantee."""
+    sd, normal = signed_distance(obs, xy_m, radius_m)
+    depth = jnp.maximum(-sd, 0.0)
+    touched = jnp.where((depth > 0.0)[:, None], normal, 0.0)
+    return xy_m + jnp.sum(depth[:, None] * normal, axis=0), touched
+
+
+def ray_intervals(obs: Obstacles, origin_xy_m: jax.Array, dirs: jax.Array, inflate_m=0.0):
+    """Where rays from ``origin_xy_m`` (2,) along unit ``dirs`` (N, 2) enter and leave each
+    obstacle grown by ``inflate_m`` (a box by its half sides: square corners): (t_in, t_out),
+    each (N, K) in metres along the ray (negative behind the origin); t_in = +inf, t_out =
+    -inf where the line misses."""
+    rel = relative(obs, origin_xy_m)  # (K, 2)
+    tc_in, tc_out = _cylinder_intervals(obs, rel, dirs, inflate_m)
+    if not obs.boxes:
+        return tc_in, tc_out
+    # Boxes: the slab test per axis.
+    h = (obs.half_m + inflate_m)[None]  # (1, K, 2)
+    u = dirs[:, None, :]  # (N, 1, 2)
+    parallel = jnp.abs(u) < _PARALLEL
+    inv = 1.0 / jnp.where(parallel, 1.0, u)
+    t1, t2 = (rel - h) * inv, (rel + h) * inv
+    inside = (jnp.abs(rel) <= h)[..., :]
+    lo = jnp.where(parallel, jnp.where(inside, -_INF, _INF), jnp.minimum(t1, t2))
+    hi = jnp.where(parallel, jnp.where(inside, _INF, -_INF), jnp.maximum(t1, t2))
+    tb_in, tb_out = jnp.max(lo, axis=-1), jnp.min(hi, axis=-1)
+    hit_b = tb_in <= tb_out
+    tb_in, tb_out = jnp.where(hit_b, tb_in, _INF), jnp.where(hit_b, tb_out, -_INF)
+    box = obs.is_box[None]
+    return jnp.where(box, tb_in, tc_in), jnp.where(box, tb_out, tc_out)
+
+
+def _cylinder_intervals(obs: Obstacles, rel: jax.Array, dirs: jax.Array, inflate_m):
+    """(t_in, t_out) (N, K) of rays from the origin along ``dirs`` (N, 2) through cylinders
+    at ``rel`` (K, 2) from it: |t u - rel| = r."""
+    r = obs.radius_m + inflate_m
+    b = dirs @ rel.T  # (N, K)
+    disc = b * b - (jnp.sum(rel * rel, axis=-1) - r * r)
+    sq = jnp.sqrt(jnp.maximum(disc, 0.0))
+    hit = disc >= 0.0
+    return jnp.where(hit, b - sq, _INF), jnp.where(hit, b + sq, -_INF)
+
+
+def ray_distances(obs: Obstacles, origin_xy_m: jax.Array, dirs: jax.Array) -> jax.Array:
+    """Distance along each ray (N,) to the first obstacle surface, +inf where none; 0 from
+    inside one."""
+    t_in, t_out = ray_intervals(obs, origin_xy_m, dirs)
+    t = jnp.where(t_out >= 0.0, jnp.maximum(t_in, 0.0), _INF)
+    return jnp.min(t, axis=-1, initial=_INF)
+
+
+def line_of_sight(obs: Obstacles, from_xy_m: jax.Array, to_xy_m: jax.Array) -> jax.Array:
+    """() bool: no obstacle cuts the segment between the two points."""
+    d = to_xy_m - from_xy_m
+    length = jnp.sqrt(jnp.sum(d * d))
+    u = d / jnp.maximum(length, 1e-9)
+    t_in, t_out = ray_intervals(obs, from_xy_m, u[None])
+    return ~jnp.any((t_in < length) & (t_out > 0.0))
+
+
+def nearest_m(obs: Obstacles, xy_m: jax.Array, radius_m=0.0) -> jax.Array:
+    """() distance from a body of ``radius_m`` at ``xy_m`` to the nearest obstacle, +inf if
+    there is none (what eq. 10's weights g(d_rob,obst) read)."""
+    sd, _ = signed_distance(obs, xy_m, radius_m)
+    return jnp.min(sd, initial=_INF)
+
+
+def free_heading(
+    obs: Obstacles,
+    xy_m: jax.Array,
+    desired_rad: jax.Array,
+    radius_m,
+    lookahead_m,
+    num_directions: int,
+) -> jax.Array:
+    """The free direction nearest ``desired_rad`` for a body of ``radius_m`` at ``xy_m``.
+
+    Candidates are ``desired + k * 2 pi / num_directions`` for k = 0, 1, -1, 2, -2, ...
+    (nearest first, left before right); one is free when no obstacle grown by the body's
+    radius lies within ``lookahead_m`` along it (heading away from or along a surface it
+    touches is free). If none is, the desired heading is kept.
+    """
+    k = jnp.arange(num_directions)
+    steps = jnp.where(k % 2 == 1, (k + 1) // 2, -(k // 2))
+    cand = desired_rad + steps * (2.0 * jnp.pi / num_directions)
+    dirs = jnp.stack([jnp.cos(cand), jnp.sin(cand)], axis=-1)
+    t_in, t_out = ray_intervals(obs, xy_m, dirs, radius_m)
+    blocked = jnp.any((t_out > 1e-4) & (t_in < lookahead_m), axis=-1)
+    first = jnp.argmax(~blocked)
+    return jnp.where(jnp.any(~blocked), cand[first], desired_rad)
+
+
+def reflect_heading(heading_rad: jax.Array, touched: jax.Array) -> jax.Array:
+    """A heading mirrored off every surface it moves into (``touched`` normals (K, 2), zero
+    where none), as the bounce target meets an obstacle."""
+    u = jnp.stack([jnp.cos(heading_rad), jnp.sin(heading_rad)])
+    into = jnp.minimum(touched @ u, 0.0)  # (K,)
+    u = u - 2.0 * jnp.sum(into[:, None] * touched, axis=0)
+    hit = jnp.any(into < 0.0)
+    return jnp.where(hit, jnp.arctan2(u[1], u[0]), heading_rad)

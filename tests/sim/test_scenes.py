@@ -1,0 +1,308 @@
+"""Rooms and woods (issue 13): layouts, the scan and the camera among obstacles, collision
+under random actions in every scene, the target's rules, terrain on the gait, per-scene
+defaults and validation."""
+
+from __future__ import annotations
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from dyncatch.sim import env
+from dyncatch.sim.api import JaxCatchEnv, obs_dim
+from dyncatch.sim.base import add_gait_noise, base_substep
+from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.frame import in_world_frame, recentre
+from dyncatch.sim.obstacles import Obstacles, signed_distance
+from dyncatch.sim.scan import robot_clearance_m
+from dyncatch.sim.scenes import SCENES, get_scene
+from dyncatch.sim.state import Obs
+from dyncatch.sim.terrain import terrain_command
+from dyncatch.sim.validate import ConfigError, validate_world
+
+from .helpers import fixed_rollout, place, random_rollout, world_xy
+
+NEW_SCENES = ["room_0", "room_4", "room_8", "woods_plane", "woods_rough", "woods_stairs"]
+STILL = jnp.zeros(3)
+
+
+def _obstacles(boxes=(), cylinders=()) -> Obstacles:
+    """World-placed boxes (cx, cy, hx, hy) and cylinders (cx, cy, r), not periodic."""
+    centre = [b[:2] for b in boxes] + [c[:2] for c in cylinders]
+    half = [b[2:] for b in boxes] + [(0.0, 0.0)] * len(cylinders)
+    radius = [0.0] * len(boxes) + [c[2] for c in cylinders]
+    f32 = jnp.float32
+    return Obstacles(
+        jnp.asarray(centre, f32).reshape(-1, 2),
+        jnp.asarray(half, f32).reshape(-1, 2),
+        jnp.asarray(radius, f32),
+        jnp.zeros((), f32),
+    )
+
+
+def _with_obstacles(state, obstacles_world: Obstacles):
+    """``state`` with its obstacles replaced by world-placed ones (robot-centred frame)."""
+    return recentre(in_world_frame(state).replace(obstacles=obstacles_world))
+
+
+def _start(cfg, obstacles_world, **where):
+    s = jax.jit(env.reset)(jax.random.key(0), cfg)
+    return place(_with_obstacles(s, obstacles_world), **where)
+
+
+def test_every_scene_is_registered():
+    assert set(NEW_SCENES) < set(SCENES)
+    for name in NEW_SCENES:
+        scene = get_scene(name)
+        assert scene.walls == name.startswith("room") and scene.layout is not None
+        assert (scene.duration_s, scene.scan_rays) == (40.0, 32)  # the paper's 40 s
+    assert get_scene("woods_plane").terrain is None
+    assert get_scene("woods_rough").terrain(WorldCfg()) == WorldCfg().rough
+
+
+def test_room_obstacles_keep_their_gaps_from_each_other_and_the_walls():
+    cfg = WorldCfg().for_scene("room_8")
+    keys = jax.random.split(jax.random.key(2), 64)
+    obs = jax.vmap(get_scene("room_8").layout, in_axes=(0, None))(keys, cfg)
+    c, ext = (
+        np.asarray(obs.centre_xy_m),
+        np.asarray(jnp.where(obs.is_box[..., None], obs.half_m, obs.radius_m[..., None])),
+    )
+    lo, hi = c - ext, c + ext
+    size, rc = cfg.arena.size_m, cfg.room
+    assert lo.min() >= rc.wall_clearance_m - 1e-5 and hi.max() <= size - rc.wall_clearance_m + 1e-5
+    # Bounding boxes of any two obstacles are at least gap_m apart along some axis.
+    i, j = np.triu_indices(8, 1)
+    gap = np.maximum(lo[:, j] - hi[:, i], lo[:, i] - hi[:, j]).max(-1)
+    assert gap.min() >= rc.gap_m - 1e-5
+    assert 0 < float(obs.is_box.mean()) < 1  # both kinds occur
+
+
+class TestSensing:
+    # A cylinder r 0.5 three metres ahead of a robot at (8, 8) and a 2 m x 1 m box two
+    # metres to its left; the room's walls are 8 m away on every side.
+    OBST = _obstacles(boxes=[(8.0, 10.0, 1.0, 0.5)], cylinders=[(11.0, 8.0, 0.5)])
+
+    @pytest.mark.parametrize(
+        ("scene", "expected"),
+        [
+            ("room_0", [2.5, 10, 1.5, 10, 8.0, 10, 8.0, 10]),  # diagonals: walls at 11.3 m
+            ("woods_plane", [2.5, 10, 1.5, 10, 10, 10, 10, 10]),  # no walls
+            ("open_plane", [10] * 8),  # nothing at all, whatever the state holds
+        ],
+    )
+    def test_the_scan_reads_hand_placed_obstacles(self, scene, expected):
+        cfg = WorldCfg().with_scene(scene)
+        s = _start(cfg, self.OBST, robot_xy=(8.0, 8.0), robot_yaw=0.0)
+        np.testing.assert_allclose(env.observe(s, cfg).scan_m, expected, rtol=1e-5)
+        # Turned left by 90 deg, the first ray reads the box.
+        s = place(s, robot_yaw=math.pi / 2)
+        assert abs(float(env.observe(s, cfg).scan_m[0]) - expected[2]) < 1e-4
+
+    def test_the_clearance_eq_10_will_read(self):
+        cfg = WorldCfg().with_scene("room_0")
+        s = _start(cfg, self.OBST, robot_xy=(8.0, 8.0), robot_yaw=0.0)
+        r = cfg.base.radius_m
+        # The box's face is 1.5 m from the base centre, the cylinder 2.5 m, the walls 8 m.
+        np.testing.assert_allclose(robot_clearance_m(s, cfg), 1.5 - r, rtol=1e-5)
+        s = place(s, robot_xy=(8.0, 1.0))  # now a wall is nearest
+        np.testing.assert_allclose(robot_clearance_m(s, cfg), 1.0 - r, rtol=1e-5)
+        open_ = WorldCfg()
+        assert (
+            float(robot_clearance_m(jax.jit(env.reset)(jax.random.key(0), open_), open_)) == np.inf
+        )
+
+    @pytest.mark.parametrize("scene", ["room_0", "woods_plane"])
+    def test_a_target_behind_an_obstacle_is_not_seen(self, scene):
+        cfg = WorldCfg().with_scene(scene).with_behavior("reactive").with_speed(0.0)
+        where = dict(robot_xy=(4.0, 8.0), robot_yaw=0.0, target_xy=(9.0, 8.0))
+        tree = _obstacles(cylinders=[(6.5, 8.0, 0.5)])
+        # 25 still steps: the camera's next frame (step 25) is captured and delivered.
+        _, hidden, _ = fixed_rollout(_start(cfg, tree, **where), STILL, cfg, 25)
+        assert float(hidden.visible[-1]) == 0.0
+        # The same with the tree taken out of the way (40 m off: same shapes, no recompile).
+        gone = tree.replace(centre_xy_m=tree.centre_xy_m + 40.0)
+        states, seen, _ = fixed_rollout(_start(cfg, gone, **where), STILL, cfg, 25)
+        assert float(seen.visible[-1]) == 1.0
+        np.testing.assert_allclose(world_xy(states, states.sensor.obs_xy_m)[-1], [9.0, 8.0])
+
+
+# Every new scene, each with a behaviour (all four covered), so that each compiles once.
+PAIRS = [
+    ("room_0", "circle"),
+    ("room_4", "bounce"),
+    ("room_8", "reactive"),
+    ("woods_plane", "random_reactive"),
+    ("woods_rough", "bounce"),
+    ("woods_stairs", "reactive"),
+]
+
+
+def _sd(states, xy, radius):
+    """Signed distance of a body to every obstacle, (T, B, K)."""
+    f = jax.vmap(jax.vmap(lambda o, p: signed_distance(o, p, radius)[0]))
+    return f(states.obstacles, xy)
+
+
+@pytest.mark.parametrize(("scene", "behavior"), PAIRS)
+@settings(max_examples=2, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), speed=st.floats(0.5, 1.8))
+def test_random_actions_never_push_a_body_into_an_obstacle_or_wall(scene, behavior, seed, speed):
+    cfg = WorldCfg().for_scene(scene).with_behavior(behavior).with_speed(speed)
+    states, infos, rewards, _ = random_rollout(jax.random.key(seed), cfg, 16, 300)
+    k = {"room_0": 0, "room_4": 4, "room_8": 8}.get(scene, 25)
+    assert states.obstacles.centre_xy_m.shape == (300, 16, k, 2)
+    leaves = jax.tree.leaves((states, infos, rewards))
+    assert all(bool(jnp.all(jnp.isfinite(x))) for x in leaves if x.dtype != bool)
+    for xy, r in (
+        (states.robot.xy_m, cfg.base.radius_m),
+        (states.target.xy_m, cfg.target.radius_m),
+    ):
+        assert np.asarray(_sd(states, xy, r)).min(initial=np.inf) >= -1e-4
+        if get_scene(scene).walls:
+            w = np.asarray(world_xy(states, xy))
+            assert w.min() >= r - 1e-4 and w.max() <= cfg.arena.size_m - r + 1e-4
+    if get_scene(scene).walls:  # the rooms' obstacles stay where they are in the world
+        c = np.asarray(world_xy(states, jnp.moveaxis(states.obstacles.centre_xy_m, 2, 0)))
+        np.testing.assert_allclose(c, np.broadcast_to(c[:, :1], c.shape), atol=1e-3)
+    scan = np.asarray(
+        jax.vmap(jax.vmap(env.observe, in_axes=(0, None)), in_axes=(0, None))(states, cfg).scan_m
+    )
+    assert scan.shape == (300, 16, 32) and scan.min() >= 0 and scan.max() <= 10.0
+
+
+def _flee_past_a_tree(lookahead_m: float):
+    """A 1.5 m/s reactive target (no random gamma) fleeing a still robot straight at a tree:
+    world positions (T, 2) and its least gap to the tree's surface."""
+    cfg = WorldCfg().with_scene("woods_plane").with_behavior("reactive").with_speed(1.5)
+    cfg = cfg.replace(
+        target=cfg.target.replace(gamma_max_rad=0.0),
+        avoid=cfg.avoid.replace(lookahead_m=lookahead_m),
+    )
+    tree = _obstacles(cylinders=[(9.5, 8.0, 0.3)])
+    s = _start(cfg, tree, robot_xy=(4.0, 8.0), robot_yaw=0.0, target_xy=(8.0, 8.0), heading=0.0)
+    states, _, _ = fixed_rollout(s, STILL, cfg, 150)
+    gap = jax.vmap(lambda o, p: signed_distance(o, p, 0.1)[0])(states.obstacles, states.target.xy_m)
+    return np.asarray(world_xy(states, states.target.xy_m)), float(gap.min())
+
+
+def test_a_fleeing_target_steers_around_a_tree():
+    xy, gap = _flee_past_a_tree(1.0)
+    # It never touches it: a free direction clears the tree grown by the target's radius,
+    # so it may graze but never press (measured 0.014 m at the closest).
+    assert gap > 1e-3
+    assert xy[-1, 0] > 10.5  # and gets past it
+    # Without looking ahead it runs into the tree (and slides around it).
+    _, gap_blind = _flee_past_a_tree(0.0)
+    assert gap_blind < 1e-3
+
+
+def test_the_bounce_target_reflects_off_a_box():
+    cfg = WorldCfg().with_scene("room_0").with_behavior("bounce").with_speed(1.0)
+    box = _obstacles(boxes=[(6.0, 8.0, 0.5, 1.0)])
+    s = _start(cfg, box, robot_xy=(14.0, 2.0), target_xy=(4.0, 8.0), heading=0.0)
+    # 1 m/s: at the face (x = 5.5 less its radius) after 1.4 s, back at x = 3.8 at 3 s.
+    states, _, _ = fixed_rollout(s, STILL, cfg, 150)
+    x = np.asarray(world_xy(states, states.target.xy_m))[:, 0]
+    assert x.max() <= 5.5 - cfg.target.radius_m + 1e-4
+    assert math.cos(float(states.target.heading_rad[-1])) < -0.99  # heading back along -x
+    assert x[-1] < 4.0
+
+
+class TestTerrain:
+    @staticmethod
+    def _drive(terrain, yaw, steps=400, cmd=(2.0, 0.0, 0.0)):
+        """Base velocities in the world (steps, 2) under a held command, no noise."""
+        cfg = WorldCfg()
+        s = jax.jit(env.reset)(jax.random.key(0), cfg).robot.replace(yaw_rad=jnp.float32(yaw))
+
+        def body(r, _):
+            r = base_substep(
+                r, jnp.asarray(cmd), cfg.base, cfg.arena, jnp.zeros(2), 0.005, False, None, terrain
+            )
+            r = r.replace(yaw_rad=jnp.float32(yaw))  # hold the heading (yaw rate aside)
+            vel = jnp.stack([jnp.cos(yaw), jnp.sin(yaw)]) * r.vel_body_mps[0]
+            return r, (vel, r.vel_body_mps)
+
+        return jax.lax.scan(body, s, None, length=steps)[1]
+
+    def test_rough_ground_lowers_the_top_speed_and_slows_tracking(self):
+        cfg = WorldCfg()
+        _, flat = self._drive(None, 0.0)
+        _, rough = self._drive(cfg.rough, 0.0)
+        np.testing.assert_allclose(flat[-1, 0], 2.0, rtol=1e-4)
+        np.testing.assert_allclose(rough[-1, 0], 2.0 * cfg.rough.speed_scale, rtol=1e-4)
+        # Slower tracking: a 0.2 m/s step (below every acceleration limit) is followed as
+        # 0.2 (1 - (1 - dt / lag)^n); 20 sub-steps of 5 ms with lag 0.1 s and 0.15 s.
+        _, flat = self._drive(None, 0.0, 20, (0.2, 0.0, 0.0))
+        _, rough = self._drive(cfg.rough, 0.0, 20, (0.2, 0.0, 0.0))
+        np.testing.assert_allclose(flat[-1, 0], 0.2 * (1 - 0.95**20), rtol=1e-4)
+        np.testing.assert_allclose(rough[-1, 0], 0.2 * (1 - (1 - 0.005 / 0.15) ** 20), rtol=1e-4)
+
+    def test_stairs_slow_climbing_across_the_steps_more_than_walking_along_them(self):
+        st = WorldCfg().stairs
+        _, across = self._drive(st, 0.0)  # facing +x: across the steps
+        _, along = self._drive(st, math.pi / 2)
+        np.testing.assert_allclose(
+            across[-1, 0], 2.0 * st.speed_scale * st.climb_speed_scale, rtol=1e-4
+        )
+        np.testing.assert_allclose(along[-1, 0], 2.0 * st.speed_scale, rtol=1e-4)
+
+    def test_more_gait_noise(self):
+        cfg = WorldCfg()
+        r = jax.jit(env.reset)(jax.random.key(0), cfg).robot
+        flat = add_gait_noise(r, jnp.ones(3), cfg.base)
+        rough = add_gait_noise(r, jnp.ones(3), cfg.base, cfg.rough)
+        np.testing.assert_allclose(flat.vel_body_mps, [0.05, 0.05], rtol=1e-6)
+        np.testing.assert_allclose(rough.vel_body_mps, [0.10, 0.10], rtol=1e-6)
+
+
+def test_scene_defaults_and_the_observation_size():
+    w = WorldCfg().for_scene("room_8")
+    assert (w.episode.duration_s, w.scene.scan_rays) == (40.0, 32)
+    assert WorldCfg().with_scene("room_8").scene.scan_rays == 8  # --scene alone keeps the scan
+    assert WorldCfg().for_scene("open_plane") == WorldCfg()
+    assert obs_dim(w) == 7 + 32 == sum(n for _, n in Obs.layout(32))
+    e = JaxCatchEnv(w)
+    assert e.observation_spec.shape == (39,)
+    assert env.observe(jax.jit(env.reset)(jax.random.key(0), w), w).flat.shape == (39,)
+
+
+@pytest.mark.parametrize(
+    ("scene", "change", "field"),
+    [
+        ("room_4", lambda w: w.replace(room=w.room.replace(gap_m=0.5)), "room.gap_m"),
+        ("room_8", lambda w: w.replace(room=w.room.replace(grid_cells=2)), "room.grid_cells"),
+        ("woods_plane", lambda w: w.replace(woods=w.woods.replace(tile_cells=3)), "woods.tile"),
+        ("woods_stairs", lambda w: w.replace(stairs=w.stairs.replace(speed_scale=1.5)), "stairs"),
+        ("woods_rough", lambda w: w.replace(rough=w.rough.replace(lag_scale=0.5)), "rough.lag"),
+    ],
+)
+def test_validation_names_the_bad_scene_constant(scene, change, field):
+    w = WorldCfg().for_scene(scene)
+    assert validate_world(w) is w
+    with pytest.raises(ConfigError, match=field.replace(".", r"\.")):
+        validate_world(change(w))
+    # A constant of another scene is not checked here.
+    validate_world(change(w).with_scene("open_plane"))
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    yaw=st.floats(-math.pi, math.pi),
+    cmd=st.tuples(st.floats(-1.0, 2.0), st.floats(-1.0, 1.0), st.floats(-2.0, 2.0)),
+)
+def test_terrain_commands_stay_within_the_scaled_limits(yaw, cmd):
+    # The stairs' climb factor turns the velocity vector; the result is clipped again, so
+    # no body component passes its (scaled) limit and the observation bounds hold.
+    w = WorldCfg()
+    st_ = w.stairs
+    out = np.asarray(terrain_command(jnp.asarray(cmd, jnp.float32), jnp.float32(yaw), w.base, st_))
+    hi = np.array([2.0 * st_.speed_scale, st_.speed_scale, 2.0 * st_.yaw_rate_scale])
+    lo = -np.array([st_.speed_scale, st_.speed_scale, 2.0 * st_.yaw_rate_scale])
+    assert np.all(out <= hi + 1e-6) and np.all(out >= lo - 1e-6)
