@@ -97,7 +97,8 @@ def recorded(runs):
 
         k0, k1 = jax.random.split(key)
         _, traj = jax.lax.scan(body, batch_reset(k0, env, 50), jax.random.split(k1, 100))
-        return jax.tree.map(lambda x: x[4::5].reshape(-1, *x.shape[2:]), traj)
+        # An explicit size: the open plane's obstacle arrays have a zero-length axis.
+        return jax.tree.map(lambda x: x[4::5].reshape(20 * 50, *x.shape[2:]), traj)
 
     states, obs = rollout(jax.random.key(7))
     assert obs.flat.shape[0] == 1000
