@@ -8,7 +8,7 @@ export JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS := 0.5
 export MPLBACKEND := Agg
 export XLA_FLAGS ?= --xla_cpu_multi_thread_eigen=true
 
-.PHONY: demo test lint format bench examples clean venv
+.PHONY: demo test test-all lint format bench examples clean venv
 
 venv: $(STAMP)
 
@@ -30,6 +30,10 @@ demo: $(STAMP)
 # --dist loadfile keeps a test file on one worker, so a module's fixture (a tiny
 # reproduction, trained runs) is built once, not once per worker.
 test: $(STAMP)
+	$(BIN)/python -m pytest -n 2 --dist loadfile --durations=15 -m "not extended"
+
+# Everything, the tests marked `extended` included (about 3 min more on 2 cores).
+test-all: $(STAMP)
 	$(BIN)/python -m pytest -n 2 --dist loadfile --durations=15
 
 lint: $(STAMP)

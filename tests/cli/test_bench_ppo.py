@@ -1,3 +1,4 @@
+import pytest
 """``dyncatch bench ppo --json`` on a tiny geometry: hand-worked FLOPs, plausible magnitudes,
 and samples/s that agree with iterations timed independently."""
 
@@ -19,6 +20,7 @@ def test_flop_count_by_hand():
     assert f["total"] == f["rollout"] + f["update"]
 
 
+@pytest.mark.extended  # bench figures: docs/performance.md
 def test_bench_ppo_json(capsys):
     import time
 

@@ -29,6 +29,7 @@ def _iterations(out):
         return [int(r["iteration"]) for r in csv.DictReader(f)]
 
 
+@pytest.mark.extended  # exact resume: tests/rl/test_resume.py
 def test_train_then_resume(tmp_path, capsys):
     out = tmp_path / "run"
     args = ["train", "--method", "rl", "--out", str(out), *TINY]

@@ -111,6 +111,7 @@ assert "all-reduce" in iterate.lower(ts).compile().as_text()
 """
 
 
+@pytest.mark.extended  # a cold 2-device process (50 s); sharded code runs on 1 device everywhere
 def test_two_devices_give_the_metrics_of_one(runs, tmp_path):
     """The environment batch and the PPO minibatches split over 2 (forced host) devices:
     the same runs to float tolerance (only the order of the cross-device sums differs)."""
@@ -143,6 +144,7 @@ def test_an_uneven_split_is_refused_naming_the_flag():
     validate_mesh(PPOCfg(num_envs=16, num_steps=8, num_minibatches=2), 2)
 
 
+@pytest.mark.extended  # resume: tests/rl/test_resume.py
 def test_a_group_resumes_and_a_resumed_seed_still_equals_its_separate_run(runs):
     group, single = runs
     args = [*TINY, "--total-steps", "512"]
