@@ -1,8 +1,9 @@
-import pytest
 """``dyncatch bench ppo --json`` on a tiny geometry: hand-worked FLOPs, plausible magnitudes,
 and samples/s that agree with iterations timed independently."""
 
 import json
+
+import pytest
 
 from dyncatch.bench.ppo_bench import mlp_flops, ppo_flops_per_sample
 from dyncatch.cli.main import main
