@@ -27,7 +27,7 @@ TINY = [
     # Fig. 6 and Table II default to every registered behaviour (checked below without a
     # run); fewer columns and rows keep the test small.
     "--fig6-behaviors", "straight", "reactive",
-    "--table-ii-behaviors", "straight", "reactive",
+    "--table-ii-behaviors", "straight",
     "--train-steps", "256",
     "--episodes", "8",
     "--speeds-mps", "0.8", "1.8",
