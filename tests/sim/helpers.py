@@ -79,3 +79,20 @@ def place(
 def world_xy(states: EnvState, xy_m: jax.Array) -> jax.Array:
     """Stored positions (..., 2) of ``states`` (any leading axes) in world coordinates."""
     return xy_m + states.origin_xy_m
+
+
+def obstacles(boxes=(), cylinders=(), period_m: float = 0.0):
+    """An ``Obstacles`` layout by hand: boxes as (cx, cy, hx, hy), cylinders as (cx, cy, r);
+    ``period_m`` > 0 repeats it over the plane (the woods' tiling)."""
+    from dyncatch.sim.obstacles import Obstacles
+
+    centre = [b[:2] for b in boxes] + [c[:2] for c in cylinders]
+    half = [b[2:] for b in boxes] + [(0.0, 0.0)] * len(cylinders)
+    radius = [0.0] * len(boxes) + [c[2] for c in cylinders]
+    f32 = jnp.float32
+    return Obstacles(
+        jnp.asarray(centre, f32).reshape(-1, 2),
+        jnp.asarray(half, f32).reshape(-1, 2),
+        jnp.asarray(radius, f32),
+        jnp.asarray(period_m, f32),
+    )

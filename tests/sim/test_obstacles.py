@@ -9,7 +9,6 @@ import jax.numpy as jnp
 import numpy as np
 
 from dyncatch.sim.obstacles import (
-    Obstacles,
     free_heading,
     line_of_sight,
     nearest_m,
@@ -19,19 +18,7 @@ from dyncatch.sim.obstacles import (
     signed_distance,
 )
 
-
-def _layout(boxes=(), cylinders=(), period=0.0) -> Obstacles:
-    """Boxes as (cx, cy, hx, hy), cylinders as (cx, cy, r)."""
-    centre = [b[:2] for b in boxes] + [c[:2] for c in cylinders]
-    half = [b[2:] for b in boxes] + [(0.0, 0.0)] * len(cylinders)
-    radius = [0.0] * len(boxes) + [c[2] for c in cylinders]
-    f32 = jnp.float32
-    return Obstacles(
-        jnp.asarray(centre, f32).reshape(-1, 2),
-        jnp.asarray(half, f32).reshape(-1, 2),
-        jnp.asarray(radius, f32),
-        jnp.asarray(period, f32),
-    )
+from .helpers import obstacles
 
 
 def _dirs(*deg):
@@ -41,7 +28,7 @@ def _dirs(*deg):
 
 # A cylinder of radius 0.5 at (5, 0), a 2 m x 1 m box centred at (0, 3), a cylinder of
 # radius 1 at (4, 4) on the diagonal.
-SCENE = _layout(boxes=[(0.0, 3.0, 1.0, 0.5)], cylinders=[(5.0, 0.0, 0.5), (4.0, 4.0, 1.0)])
+SCENE = obstacles(boxes=[(0.0, 3.0, 1.0, 0.5)], cylinders=[(5.0, 0.0, 0.5), (4.0, 4.0, 1.0)])
 
 
 class TestRayCast:
@@ -68,7 +55,7 @@ class TestRayCast:
         assert float(d[0]) == math.inf
 
     def test_a_box_corner_from_a_slanted_ray(self):
-        box = _layout(boxes=[(3.0, 3.0, 1.0, 1.0)])
+        box = obstacles(boxes=[(3.0, 3.0, 1.0, 1.0)])
         # Along the diagonal the corner (2, 2) is hit at 2 sqrt(2).
         np.testing.assert_allclose(ray_distances(box, jnp.zeros(2), _dirs(45)), [2 * 2**0.5])
         # At atan(1/3) the ray meets the face x = 2 at y = 2/3, below the box: a miss; at
@@ -121,14 +108,14 @@ class TestTargetRules:
         # A cylinder of radius 0.3 one metre ahead, grown by the target's 0.1: a ray at
         # angle a clears it if sin(a) > 0.4 / 1.0, so 22.5 deg (0.383) is blocked and 45 deg
         # the nearest free direction; left comes before right.
-        tree = _layout(cylinders=[(1.0, 0.0, 0.3)])
+        tree = obstacles(cylinders=[(1.0, 0.0, 0.3)])
         h = free_heading(tree, jnp.zeros(2), jnp.zeros(()), 0.1, 1.5, 16)
         np.testing.assert_allclose(h, math.radians(45.0), atol=1e-6)
         # Out of the lookahead the desired heading is kept.
         h = free_heading(tree, jnp.zeros(2), jnp.zeros(()), 0.1, 0.5, 16)
         assert float(h) == 0.0
         # Nothing is free from inside a ring of trees: the desired heading is kept.
-        ring = _layout(
+        ring = obstacles(
             cylinders=[(math.cos(a), math.sin(a), 0.45) for a in np.arange(8) * np.pi / 4]
         )
         assert float(
@@ -146,7 +133,7 @@ class TestTargetRules:
 
 def test_periodic_copies_are_seen_from_anywhere():
     # A tree at the origin of a 25 m tile is also at (25, 0), (-25, 0), ...
-    tree = _layout(cylinders=[(0.0, 0.0, 0.5)], period=25.0)
+    tree = obstacles(cylinders=[(0.0, 0.0, 0.5)], period_m=25.0)
     np.testing.assert_allclose(ray_distances(tree, jnp.array([21.0, 0.0]), _dirs(0)), [3.5])
     np.testing.assert_allclose(ray_distances(tree, jnp.array([1e4 + 3.0, 0.0]), _dirs(180)), [2.5])
     # Moving the frame 10 km keeps the stored centre within half a tile of the new origin.
@@ -156,7 +143,7 @@ def test_periodic_copies_are_seen_from_anywhere():
 
 
 def test_a_cylinders_only_layout_skips_the_box_test_with_the_same_result():
-    trees = _layout(cylinders=[(5.0, 0.0, 0.5), (4.0, 4.0, 1.0), (-3.0, 1.0, 0.2)])
+    trees = obstacles(cylinders=[(5.0, 0.0, 0.5), (4.0, 4.0, 1.0), (-3.0, 1.0, 0.2)])
     dirs = _dirs(*np.arange(0, 360, 7.5))
     both = ray_distances(trees, jnp.array([0.3, -0.2]), dirs)
     only = ray_distances(trees.replace(boxes=False), jnp.array([0.3, -0.2]), dirs)

@@ -25,34 +25,20 @@ from dyncatch.sim.state import Obs
 from dyncatch.sim.terrain import terrain_command
 from dyncatch.sim.validate import ConfigError, validate_world
 
-from .helpers import fixed_rollout, place, random_rollout, world_xy
+from .helpers import fixed_rollout, obstacles, place, random_rollout, world_xy
 
 NEW_SCENES = ["room_0", "room_4", "room_8", "woods_plane", "woods_rough", "woods_stairs"]
 STILL = jnp.zeros(3)
 
 
-def _obstacles(boxes=(), cylinders=()) -> Obstacles:
-    """World-placed boxes (cx, cy, hx, hy) and cylinders (cx, cy, r), not periodic."""
-    centre = [b[:2] for b in boxes] + [c[:2] for c in cylinders]
-    half = [b[2:] for b in boxes] + [(0.0, 0.0)] * len(cylinders)
-    radius = [0.0] * len(boxes) + [c[2] for c in cylinders]
-    f32 = jnp.float32
-    return Obstacles(
-        jnp.asarray(centre, f32).reshape(-1, 2),
-        jnp.asarray(half, f32).reshape(-1, 2),
-        jnp.asarray(radius, f32),
-        jnp.zeros((), f32),
-    )
-
-
-def _with_obstacles(state, obstacles_world: Obstacles):
+def _withobstacles(state, obstacles_world: Obstacles):
     """``state`` with its obstacles replaced by world-placed ones (robot-centred frame)."""
     return recentre(in_world_frame(state).replace(obstacles=obstacles_world))
 
 
 def _start(cfg, obstacles_world, **where):
     s = jax.jit(env.reset)(jax.random.key(0), cfg)
-    return place(_with_obstacles(s, obstacles_world), **where)
+    return place(_withobstacles(s, obstacles_world), **where)
 
 
 def test_every_scene_is_registered():
@@ -86,7 +72,7 @@ def test_room_obstacles_keep_their_gaps_from_each_other_and_the_walls():
 class TestSensing:
     # A cylinder r 0.5 three metres ahead of a robot at (8, 8) and a 2 m x 1 m box two
     # metres to its left; the room's walls are 8 m away on every side.
-    OBST = _obstacles(boxes=[(8.0, 10.0, 1.0, 0.5)], cylinders=[(11.0, 8.0, 0.5)])
+    OBST = obstacles(boxes=[(8.0, 10.0, 1.0, 0.5)], cylinders=[(11.0, 8.0, 0.5)])
 
     @pytest.mark.parametrize(
         ("scene", "expected"),
@@ -96,7 +82,7 @@ class TestSensing:
             ("open_plane", [10] * 8),  # nothing at all, whatever the state holds
         ],
     )
-    def test_the_scan_reads_hand_placed_obstacles(self, scene, expected):
+    def test_the_scan_reads_hand_placedobstacles(self, scene, expected):
         cfg = WorldCfg().with_scene(scene)
         s = _start(cfg, self.OBST, robot_xy=(8.0, 8.0), robot_yaw=0.0)
         np.testing.assert_allclose(env.observe(s, cfg).scan_m, expected, rtol=1e-5)
@@ -121,7 +107,7 @@ class TestSensing:
     def test_a_target_behind_an_obstacle_is_not_seen(self, scene):
         cfg = WorldCfg().with_scene(scene).with_behavior("reactive").with_speed(0.0)
         where = dict(robot_xy=(4.0, 8.0), robot_yaw=0.0, target_xy=(9.0, 8.0))
-        tree = _obstacles(cylinders=[(6.5, 8.0, 0.5)])
+        tree = obstacles(cylinders=[(6.5, 8.0, 0.5)])
         # 25 still steps: the camera's next frame (step 25) is captured and delivered.
         _, hidden, _ = fixed_rollout(_start(cfg, tree, **where), STILL, cfg, 25)
         assert float(hidden.visible[-1]) == 0.0
@@ -184,7 +170,7 @@ def _flee_past_a_tree(lookahead_m: float):
         target=cfg.target.replace(gamma_max_rad=0.0),
         avoid=cfg.avoid.replace(lookahead_m=lookahead_m),
     )
-    tree = _obstacles(cylinders=[(9.5, 8.0, 0.3)])
+    tree = obstacles(cylinders=[(9.5, 8.0, 0.3)])
     s = _start(cfg, tree, robot_xy=(4.0, 8.0), robot_yaw=0.0, target_xy=(8.0, 8.0), heading=0.0)
     states, _, _ = fixed_rollout(s, STILL, cfg, 150)
     gap = jax.vmap(lambda o, p: signed_distance(o, p, 0.1)[0])(states.obstacles, states.target.xy_m)
@@ -204,7 +190,7 @@ def test_a_fleeing_target_steers_around_a_tree():
 
 def test_the_bounce_target_reflects_off_a_box():
     cfg = WorldCfg().with_scene("room_0").with_behavior("bounce").with_speed(1.0)
-    box = _obstacles(boxes=[(6.0, 8.0, 0.5, 1.0)])
+    box = obstacles(boxes=[(6.0, 8.0, 0.5, 1.0)])
     s = _start(cfg, box, robot_xy=(14.0, 2.0), target_xy=(4.0, 8.0), heading=0.0)
     # 1 m/s: at the face (x = 5.5 less its radius) after 1.4 s, back at x = 3.8 at 3 s.
     states, _, _ = fixed_rollout(s, STILL, cfg, 150)

@@ -20,6 +20,7 @@ from dyncatch.viz.render import (
     ROBOT_COLOR,
     TARGET_COLOR,
     VIRTUAL_COLOR,
+    WALL_COLOR,
     follows_robot,
     frame_rows,
     pixel_of,
@@ -186,7 +187,7 @@ class TestOpenPlaneView:
 
     def test_no_wall_is_drawn_and_the_virtual_square_is_where_it_is(self, chase):
         traj, frames = chase
-        wall = np.array(to_rgb("#333333")) * 255
+        wall = np.array(to_rgb(WALL_COLOR)) * 255
         first = frames[0]
         assert (np.abs(first.astype(float) - wall).max(axis=-1) <= 6).sum() < 20
         # The episode starts inside the square: its dashed sides (grey, darker than the grid
