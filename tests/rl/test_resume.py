@@ -7,7 +7,7 @@ import pytest
 from dyncatch.rl.config import PPOCfg
 from dyncatch.rl.train import make_train
 from dyncatch.sim.config import WorldCfg
-from dyncatch.utils.tree_io import TreeFileError, load_tree, save_tree
+from dyncatch.utils.tree_io import TreeFileError, load_fields, load_tree, save_tree
 
 WORLD = WorldCfg().with_behavior("bounce")
 PPO = PPOCfg(num_envs=16, num_steps=8, num_minibatches=2, update_epochs=2, hidden_sizes=(32,))
@@ -53,3 +53,22 @@ def test_a_checkpoint_of_another_config_or_a_corrupt_file_is_refused(trainer, tm
         load_tree(bad, ts)
     with pytest.raises(FileNotFoundError):
         load_tree(tmp_path / "missing.safetensors", ts)
+
+
+def test_a_policy_loads_when_only_the_environment_part_of_the_state_changed(trainer, tmp_path):
+    """A scene that adds a field to the environment state leaves old policies loadable."""
+    init, _ = trainer
+    ts = init(jax.random.key(0))
+    saved = ts.replace(env_state=ts.env_state.replace(step=ts.env_state.step[:1]))
+    save_tree(tmp_path / "old.safetensors", saved, {"iteration": 0})
+    with pytest.raises(TreeFileError, match="env_state"):
+        load_tree(tmp_path / "old.safetensors", ts)
+    got, header = load_fields(tmp_path / "old.safetensors", ts, ("params", "norm"))
+    assert header == {"iteration": 0}
+    for name in ("params", "norm"):
+        jax.tree_util.tree_map(np.testing.assert_array_equal, got[name], getattr(ts, name))
+    # A policy part that changed is still refused, naming the leaf.
+    other_init, _, _ = make_train(WORLD, PPO.replace(hidden_sizes=(8,)))
+    save_tree(tmp_path / "other.safetensors", jax.jit(other_init)(jax.random.key(0)), {})
+    with pytest.raises(TreeFileError, match=r"\.params.*another config"):
+        load_fields(tmp_path / "other.safetensors", ts, ("params",))

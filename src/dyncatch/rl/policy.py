@@ -25,7 +25,7 @@ from dyncatch.sim.api import Environment, JaxCatchEnv
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.state import EnvState, Obs
 from dyncatch.utils.config_io import from_dict
-from dyncatch.utils.tree_io import TreeFileError, load_tree, read_header
+from dyncatch.utils.tree_io import TreeFileError, load_fields, read_header
 
 
 @struct.dataclass
@@ -117,6 +117,8 @@ def load_run(
     env = JaxCatchEnv(world)
     init, _, net = make_train(env, ppo, train_fn)
     template = jax.eval_shape(init, jax.random.key(0))
-    ts, _ = load_tree(path, template)
-    policy = LearnedPolicy(net, ts.params, ts.norm, obs_fn, env)
+    # Only what the policy needs: the environment's part of the state may have changed
+    # shape since training (a scene added a field) without changing the policy.
+    got, _ = load_fields(path, template, ("params", "norm"))
+    policy = LearnedPolicy(net, got["params"], got["norm"], obs_fn, env)
     return Run(policy, method, trained, header["behavior"], world, header)

@@ -76,21 +76,22 @@ def read_header(path: str | os.PathLike) -> dict:
         raise TreeFileError(f"{path}: not a dyncatch checkpoint or corrupt ({err})") from None
 
 
-def load_tree(path: str | os.PathLike, template):
-    """(tree shaped like ``template``, header). The template may be abstract
-    (``jax.eval_shape`` of an initialiser), so loading need not build a real state."""
-    path = Path(path)
+def _read_arrays(path: Path) -> tuple[dict, dict]:
     if not path.exists():
         raise FileNotFoundError(f"{path}: no such checkpoint")
     header = read_header(path)
     try:
-        arrays = load_file(str(path))
+        return load_file(str(path)), header
     except (SafetensorError, OSError) as err:
         raise TreeFileError(f"{path}: corrupt checkpoint ({err})") from None
+
+
+def _fill(path: Path, arrays: dict, template, prefix: str = ""):
+    """``template`` with every leaf read from ``arrays`` under ``prefix`` + its tree path."""
     leaves, treedef = jax.tree_util.tree_flatten(template)
-    named = _named_leaves(template)
     out = []
-    for (name, tleaf), _ in zip(named, leaves, strict=True):
+    for (name, tleaf), _ in zip(_named_leaves(template), leaves, strict=True):
+        name = prefix + name
         if name not in arrays:
             raise TreeFileError(f"{path}: missing {name}; it was saved by another config")
         value = arrays[name]
@@ -101,6 +102,27 @@ def load_tree(path: str | os.PathLike, template):
                 f"{shape} {dtype}: it was saved by another config"
             )
         out.append(jax.random.wrap_key_data(value) if _is_key(tleaf) else jnp.asarray(value))
-    if len(arrays) != len(named):
-        raise TreeFileError(f"{path}: holds {len(arrays)} arrays, expected {len(named)}")
-    return jax.tree_util.tree_unflatten(treedef, out), header
+    return jax.tree_util.tree_unflatten(treedef, out)
+
+
+def load_tree(path: str | os.PathLike, template):
+    """(tree shaped like ``template``, header). The template may be abstract
+    (``jax.eval_shape`` of an initialiser), so loading need not build a real state."""
+    path = Path(path)
+    arrays, header = _read_arrays(path)
+    tree = _fill(path, arrays, template)
+    if len(arrays) != len(_named_leaves(template)):
+        raise TreeFileError(
+            f"{path}: holds {len(arrays)} arrays, expected {len(_named_leaves(template))}"
+        )
+    return tree, header
+
+
+def load_fields(path: str | os.PathLike, template, fields: tuple[str, ...]):
+    """({field: subtree}, header): only the named top-level fields of a dataclass-shaped
+    ``template`` (e.g. a policy's parameters and normaliser out of a training state). The
+    other fields are neither read into the template nor checked, so a policy stays loadable
+    when a part of the state it does not need (the environment's) has changed shape."""
+    path = Path(path)
+    arrays, header = _read_arrays(path)
+    return {f: _fill(path, arrays, getattr(template, f), prefix=f".{f}") for f in fields}, header
