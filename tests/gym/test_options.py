@@ -43,7 +43,7 @@ class TestCatchEnvOptions:
     def test_speed_none_restores_the_built_range(self):
         env = CatchEnv("circle")
         built = (env.world.target.speed_min_mps, env.world.target.speed_max_mps)
-        assert built == (0.8, 1.8)
+        assert built == (0.0, 1.8)
         env.reset(seed=0, options={"speed_mps": 0.5})
         assert (env.world.target.speed_min_mps, env.world.target.speed_max_mps) == (0.5, 0.5)
         assert float(env.state.target.speed_mps) == pytest.approx(0.5)

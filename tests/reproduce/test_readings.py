@@ -13,7 +13,7 @@ EXPECTED = {
     "legged_yaw": {"world.base.max_yaw_rate_rps": (2.0, 1.0)},
     "legged_turning": {"world.base.max_lateral_accel_mps2": (float("inf"), 3.0)},
     "slow_tracking": {"world.base.lag_s": (0.1, 0.3)},
-    "paper_speeds": {"world.target.speed_min_mps": (0.8, 0.0)},
+    "narrow_speeds": {"world.target.speed_min_mps": (0.0, 0.8)},
     "paper_budget": {"train_steps": (4_000_000, 20_000_000)},
 }
 

@@ -24,8 +24,9 @@ class TargetBodyCfg:
 
     behavior: str = static("reactive")
     """Behaviour, a key of ``dyncatch.sim.behaviors.BEHAVIORS``."""
-    speed_min_mps: float = 0.8
-    """Lower end of the per-episode speed cap."""
+    speed_min_mps: float = 0.0
+    """Lower end of the per-episode speed cap (paper V-B: caps drawn within 1.8 m/s in
+    training; the ``narrow_speeds`` reading restores the first slice's 0.8)."""
     speed_max_mps: float = 1.8
     """Upper end of the per-episode speed cap."""
     max_turn_rate_rps: float = 10.0
