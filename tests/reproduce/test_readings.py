@@ -51,6 +51,8 @@ def test_the_command_line_applies_a_setting_and_flags_override_it():
 def test_docs_list_every_reading():
     from pathlib import Path
 
-    doc = (Path(__file__).resolve().parents[2] / "docs" / "fidelity.md").read_text()
-    for name in READINGS:
-        assert f"| `{name}` |" in doc, name
+    docs = Path(__file__).resolve().parents[2] / "docs"
+    for page in ("fidelity.md", "model.md"):
+        doc = (docs / page).read_text()
+        for name in READINGS:
+            assert f"| `{name}` |" in doc, (page, name)
