@@ -75,6 +75,28 @@ READINGS: dict[str, Reading] = {
             _world(base={"lag_s": 0.3}),
         ),
         Reading(
+            "fullbody_base",
+            "base: max_forward_mps = 2.3, max_backward_mps = 2.0, max_yaw_rate_rps = 3.0, "
+            "max_lateral_accel_mps2 = 2.9, lag_s = 0.09, max_lin_accel_mps2 = 2.0, "
+            "max_yaw_accel_rps2 = 9.5",
+            "the paper's robot is an Aliengo under a 200 Hz gait (Sec. IV) and gives none of "
+            "these; measured on our full-body Aliengo + Z1 trot (benchmarks/calibrate_base.py, "
+            "docs/fullbody.md): top speeds read off its step responses (backward and yaw rate "
+            "at the largest step tried), the turn limit off its turns at speed, the lag and "
+            "accelerations by least squares over its step responses",
+            _world(
+                base={
+                    "max_forward_mps": 2.3,
+                    "max_backward_mps": 2.0,
+                    "max_yaw_rate_rps": 3.0,
+                    "max_lateral_accel_mps2": 2.9,
+                    "lag_s": 0.09,
+                    "max_lin_accel_mps2": 2.0,
+                    "max_yaw_accel_rps2": 9.5,
+                }
+            ),
+        ),
+        Reading(
             "paper_speeds",
             "target.speed_min_mps = 0.0 (training speed caps drawn from U(0, 1.8))",
             "\"the object's maximum velocity |v_obj| is randomly set within [-1.8 m/s, 1.8 "
