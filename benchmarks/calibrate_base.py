@@ -32,7 +32,7 @@ from dyncatch.utils.config_io import config_diff, to_json
 from dyncatch.utils.jax_setup import setup_jax
 
 SAMPLE_HZ = 25
-"""Rate of the traces kept in the JSON and drawn (above twice the trot's 6.7 Hz ripple; the
+"""Rate of the traces kept in the JSON and drawn (well above the trot's 3.3 Hz ripple; the
 fit itself uses every 200 Hz sample)."""
 
 

@@ -106,19 +106,20 @@ _reset = jax.jit(lambda keys, env: jax.vmap(env.reset)(keys))
 _observe = jax.jit(lambda state, env: jax.vmap(env.observe)(state))
 
 
+def _act(pol, carry, state, obs, keys):
+    return jax.vmap(pol.step)(carry, state, obs, keys)
+
+
+_act_pytree = jax.jit(_act)
+_act_static = jax.jit(_act, static_argnums=0)
+
+
 def _act_fn(policy) -> Callable:
-    """Jitted ``(carry, state, obs, keys) -> (carry, actions)`` for a batch; a pytree
-    policy (a trained network) is an argument, a hashable one (a baseline) a constant, as
-    ``evaluation.episodes`` treats them."""
-    pol = as_recurrent(policy)
-
-    def act(pol, carry, state, obs, keys):
-        return jax.vmap(pol.step)(carry, state, obs, keys)
-
-    if getattr(policy, "is_pytree_policy", False):
-        jitted = jax.jit(act)
-        return functools.partial(jitted, pol)
-    return jax.jit(functools.partial(act, pol))
+    """``(carry, state, obs, keys) -> (carry, actions)`` for a batch, jitted once per
+    policy kind: a pytree policy (a trained network) is an argument, a hashable one (a
+    baseline) a compile-time constant, as ``evaluation.episodes`` treats them."""
+    jitted = _act_pytree if getattr(policy, "is_pytree_policy", False) else _act_static
+    return functools.partial(jitted, as_recurrent(policy))
 
 
 @dataclasses.dataclass
@@ -174,18 +175,22 @@ def run_fullbody_episodes(
     env: Environment | WorldCfg,
     num_episodes: int,
     fullbody: FullBodyCfg | None = None,
+    record: int | None = None,
 ) -> dict[str, np.ndarray]:
     """Play ``num_episodes`` episodes on the full body; the counterpart of
     ``evaluation.episodes.run_episodes`` (same key, same episodes).
 
     Returns ``success`` (N,) bool, ``catch_time_s`` (N,) (the limit on failure),
     ``return`` (N,), ``fell`` (N,) bool, ``env_steps`` (the 50 Hz steps simulated on the
-    full body, over all episodes) and ``wall_s``.
+    full body, over all episodes), ``wall_s`` and ``cpu_s`` (this process's CPU time: the
+    honest cost on a shared machine). ``record``: an episode's index whose full-body state
+    is kept at every 50 Hz step until it ends, as ``qpos`` (T, nq) and ``target_m`` (T, 3)
+    (world frame; ``benchmarks/fullbody_video.py`` replays them).
     """
     from dyncatch.fullbody.env import FullBodyEnv
     from dyncatch.fullbody.model import build_model
 
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     env = as_env(env)
     world = env.world
     fullbody = FullBodyCfg(arm=world.arm) if fullbody is None else fullbody
@@ -208,6 +213,7 @@ def run_fullbody_episodes(
     done, success = np.zeros(n, bool), np.zeros(n, bool)
     steps, ret = np.zeros(n, np.int64), np.zeros(n)
     env_steps = 0
+    qpos, target_m = [], []
     for t in range(num_steps):
         if done.all():
             break
@@ -234,8 +240,13 @@ def run_fullbody_episodes(
         steps += live & ~success
         success |= live & got
         ret += np.where(live, np.asarray(reward), 0.0)
+        if record is not None and not done[record]:
+            qpos.append(robots.envs[record].data.qpos.copy())
+            body = robots.envs[record]
+            target_m.append(body.data.mocap_pos[body.idx.target_mocap].copy())
         done |= np.asarray(now_done)
     dt = world.episode.dt_s
+    recorded = {} if record is None else {"qpos": np.array(qpos), "target_m": np.array(target_m)}
     return {
         "success": success,
         "catch_time_s": np.where(success, steps * dt, num_steps * dt),
@@ -243,4 +254,6 @@ def run_fullbody_episodes(
         "fell": robots.fallen.copy(),
         "env_steps": env_steps,
         "wall_s": time.perf_counter() - t0,
+        "cpu_s": time.process_time() - c0,
+        **recorded,
     }
