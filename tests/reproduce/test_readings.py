@@ -14,6 +14,15 @@ EXPECTED = {
     "legged_turning": {"world.base.max_lateral_accel_mps2": (float("inf"), 3.0)},
     "slow_tracking": {"world.base.lag_s": (0.1, 0.3)},
     "narrow_speeds": {"world.target.speed_min_mps": (0.0, 0.8)},
+    "fullbody_base": {
+        "world.base.max_forward_mps": (2.0, 2.3),
+        "world.base.max_backward_mps": (1.0, 2.0),
+        "world.base.max_yaw_rate_rps": (2.0, 3.0),
+        "world.base.max_lateral_accel_mps2": (float("inf"), 2.9),
+        "world.base.lag_s": (0.1, 0.09),
+        "world.base.max_lin_accel_mps2": (4.0, 2.0),
+        "world.base.max_yaw_accel_rps2": (10.0, 9.5),
+    },
     "paper_budget": {"train_steps": (4_000_000, 20_000_000)},
 }
 

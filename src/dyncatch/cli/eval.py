@@ -13,7 +13,7 @@ from pathlib import Path
 import tyro
 
 from dyncatch.sim.config import WorldCfg
-from dyncatch.utils.cli_types import BehaviorName
+from dyncatch.utils.cli_types import BehaviorName, EvalBackendName
 
 
 @dataclasses.dataclass(frozen=True)
@@ -34,6 +34,10 @@ class EvalCmd:
     """Evaluate a run as a method that reuses its policy (sp_fp for a gt_rl run)."""
     predictor: Path | None = None
     """Predictor checkpoint, overriding the one the run was trained with (needed for sp_fp)."""
+    backend: EvalBackendName = "jax"
+    """Where the episodes are played (dyncatch.evaluation.backends): jax, the reduced-order
+    world; mujoco, the full-body Aliengo + Z1 (pip install -e '.[fullbody]'; open plane
+    only; docs/fullbody.md). The same seed plays the same episodes on both."""
     json: bool = False
     """Print one JSON object {"rows": [...], "world_changes": {...}} instead of a table."""
     world: WorldCfg = WorldCfg()
@@ -78,12 +82,14 @@ def run_eval(cmd: EvalCmd) -> dict:
     if trained_world is not None:
         diff = config_diff(trained_world, world)
         changes = {k: v for k, v in diff.items() if not k.startswith("target.speed_")}
-    rows = evaluate_speeds(policy, world, cmd.behavior, cmd.speeds, cmd.episodes, cmd.seed, method)
+    rows = evaluate_speeds(
+        policy, world, cmd.behavior, cmd.speeds, cmd.episodes, cmd.seed, method, cmd.backend
+    )
     result = {"rows": rows, "world_changes": {k: list(v) for k, v in changes.items()}}
     if cmd.json:
         print(json.dumps(result))
         return result
-    print(f"{method} vs {cmd.behavior}, {cmd.episodes} episodes per speed")
+    print(f"{method} vs {cmd.behavior}, {cmd.episodes} episodes per speed ({cmd.backend})")
     if changes:
         shown = ", ".join(f"{k} {a} -> {b}" for k, (a, b) in changes.items())
         print(f"evaluated in another world than it was trained in: {shown}")

@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import jax
+import numpy as np
 
-from dyncatch.evaluation.episodes import run_episodes
+from dyncatch.evaluation.backends import get_backend
 from dyncatch.evaluation.stats import summarize
 from dyncatch.sim.api import Environment, as_env
 from dyncatch.sim.config import WorldCfg
@@ -22,16 +23,23 @@ def evaluate_speeds(
     episodes: int,
     seed: int,
     method: str,
+    backend: str = "jax",
 ) -> list[dict]:
-    """One row per speed: success rate with a Wilson 95 % CI and mean catch time."""
+    """One row per speed: success rate with a Wilson 95 % CI and mean catch time, played on
+    ``backend`` (a key of ``evaluation.backends.EVAL_BACKENDS``); the same seed plays the
+    same episodes on every backend."""
     env = as_env(env)
+    entry = get_backend(backend)
     key = jax.random.fold_in(jax.random.key(seed), EVAL_STREAM)
     rows = []
     for i, speed in enumerate(speeds_mps):
         cell = env.with_world(env.world.with_behavior(behavior).with_speed(speed))
-        s = summarize(run_episodes(policy, jax.random.fold_in(key, i), cell, episodes))
+        outcome = entry.run(policy, jax.random.fold_in(key, i), cell, episodes)
+        s = summarize(outcome)
+        extra = {f"{k}_rate": float(np.mean(outcome[k])) for k in entry.extra_keys}
         rows.append(
             {
+                "backend": backend,
                 "method": method,
                 "behavior": behavior,
                 "speed_mps": float(speed),
@@ -39,6 +47,7 @@ def evaluate_speeds(
                 "success_rate": s["success_rate"],
                 "success_ci95": s["success_ci95"],
                 "catch_time_s": s["catch_time_s"],
+                **extra,
             }
         )
     return rows

@@ -26,14 +26,16 @@ from dyncatch.fullbody.model import build_model, robot_mass_kg
 class FullBodyEnv:
     """Aliengo + arm + target. ``step(cmd, arm_goal_m)`` advances one control period."""
 
-    def __init__(self, cfg: FullBodyCfg | None = None):
+    def __init__(self, cfg: FullBodyCfg | None = None, built=None):
+        """``built``: ``build_model(cfg)``'s ``(model, Indices)`` to share one compiled
+        model between several envs (a batched evaluation); None compiles one."""
         import mujoco
 
         cfg = FullBodyCfg() if cfg is None else cfg
 
         self._mj = mujoco
         self.cfg = validate_fullbody(cfg)
-        self.model, self.idx = build_model(cfg)
+        self.model, self.idx = build_model(cfg) if built is None else built
         self.data = mujoco.MjData(self.model)
         self._scratch = mujoco.MjData(self.model)
         self.mass_kg = robot_mass_kg(self.model)

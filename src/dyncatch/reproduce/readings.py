@@ -82,6 +82,28 @@ READINGS: dict[str, Reading] = {
             _world(target={"speed_min_mps": 0.8}),
         ),
         Reading(
+            "fullbody_base",
+            "base: max_forward_mps = 2.3, max_backward_mps = 2.0, max_yaw_rate_rps = 3.0, "
+            "max_lateral_accel_mps2 = 2.9, lag_s = 0.09, max_lin_accel_mps2 = 2.0, "
+            "max_yaw_accel_rps2 = 9.5",
+            "the paper's robot is an Aliengo under a 200 Hz gait (Sec. IV) and gives none of "
+            "these; measured on our full-body Aliengo + Z1 trot (benchmarks/calibrate_base.py, "
+            "docs/fullbody.md): top speeds read off its step responses (backward and yaw rate "
+            "at the largest step tried), the turn limit off its turns at speed, the lag and "
+            "accelerations by least squares over its step responses",
+            _world(
+                base={
+                    "max_forward_mps": 2.3,
+                    "max_backward_mps": 2.0,
+                    "max_yaw_rate_rps": 3.0,
+                    "max_lateral_accel_mps2": 2.9,
+                    "lag_s": 0.09,
+                    "max_lin_accel_mps2": 2.0,
+                    "max_yaw_accel_rps2": 9.5,
+                }
+            ),
+        ),
+        Reading(
             "paper_budget",
             "train_steps = 20 M per run",
             '"the 20M to 50M steps required for high-level RL" (Sec. V-B)',

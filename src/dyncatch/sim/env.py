@@ -231,9 +231,26 @@ def step(state: EnvState, action: jax.Array, cfg: WorldCfg):
         )
     gripper = gripper_world(robot, gripper_in_base(robot.arm_q_rad, cfg.arm, cfg.base))
     best_err = jnp.minimum(best_err, catch_error_m(gripper, target, cfg))
-    success = best_err <= cfg.arm.catch_radius_m
     robot = robot.replace(gripper_xyz_m=gripper)
+    return finish_step(state, robot, target, best_err, key, k_sense, cfg)
 
+
+def finish_step(
+    state: EnvState,
+    robot: RobotState,
+    target: TargetState,
+    best_err: jax.Array,
+    key: jax.Array,
+    k_sense: jax.Array,
+    cfg: WorldCfg,
+):
+    """The end of ``step`` once the bodies have moved (shared with other physics backends,
+    ``dyncatch.fullbody.catch``): the catch from ``best_err`` (the step's smallest
+    catch-point error), the camera, the reward, the frame and the episode's end.
+    ``robot`` and ``target`` are in ``state``'s frame; ``key`` becomes the next state's key."""
+    obstacles = obstacles_in_play(state, cfg)
+    dt_s = cfg.episode.dt_s
+    success = best_err <= cfg.arm.catch_radius_m
     step_count = state.step + 1
     sensor = sensor_tick(
         state.sensor,

@@ -102,3 +102,13 @@ SceneName = Annotated[
     tyro.conf.arg(aliases=("--scene",)),
 ]
 """A key of ``dyncatch.sim.scenes.SCENES``; ``--scene`` on the command line."""
+
+
+def _eval_backends() -> Sequence[str]:
+    from dyncatch.evaluation.backends import EVAL_BACKENDS
+
+    return tuple(EVAL_BACKENDS)
+
+
+EvalBackendName = live_name(_eval_backends, "BACKEND")
+"""A key of ``dyncatch.evaluation.backends.EVAL_BACKENDS``."""

@@ -1,0 +1,53 @@
+"""Env-steps/s of ``dyncatch eval --backend mujoco`` (``fullbody.catch``), for docs/performance.md.
+
+``python benchmarks/fullbody_throughput.py [--episodes N] [--duration-s T] [--speed-mps V]``:
+the pursuit baseline against the reactive target, N episodes of at most T seconds played
+at once, run twice (the first run compiles the JAX side). Prints the second run's 50 Hz
+env steps, wall time, this process's CPU time and the steps per second of each.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import jax
+import tyro
+
+from dyncatch.fullbody.catch import run_fullbody_episodes
+from dyncatch.policies.registry import BASELINES
+from dyncatch.sim.config import WorldCfg
+from dyncatch.utils.jax_setup import setup_jax
+
+
+@dataclasses.dataclass(frozen=True)
+class ThroughputCmd:
+    episodes: int = 8
+    """Episodes played at once."""
+    duration_s: float = 4.0
+    """Episode limit (short: the cost per step is what is measured)."""
+    speed_mps: float = 1.2
+    """Target speed (reactive)."""
+
+
+def main(cmd: ThroughputCmd) -> dict:
+    world = WorldCfg().with_speed(cmd.speed_mps)
+    world = world.replace(episode=world.episode.replace(duration_s=cmd.duration_s))
+    policy = BASELINES["pursuit"](world)
+    for seed in (0, 1):
+        out = run_fullbody_episodes(policy, jax.random.key(seed), world, cmd.episodes)
+    result = {
+        "episodes": cmd.episodes,
+        "env_steps": out["env_steps"],
+        "wall_s": round(out["wall_s"], 2),
+        "cpu_s": round(out["cpu_s"], 2),
+        "env_steps_per_wall_s": round(out["env_steps"] / out["wall_s"], 1),
+        "env_steps_per_cpu_s": round(out["env_steps"] / out["cpu_s"], 1),
+    }
+    print(json.dumps(result))
+    return result
+
+
+if __name__ == "__main__":
+    setup_jax()
+    main(tyro.cli(ThroughputCmd))
