@@ -16,6 +16,7 @@ environment: ``MethodObs.init_carry`` / ``MethodObs.step`` are the seam every ro
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -208,20 +209,51 @@ def get_method(name: str) -> Method:
     return METHODS[name]
 
 
-def trained_methods() -> tuple[str, ...]:
-    """Names of the methods PPO trains, in registry order."""
-    return tuple(name for name, m in METHODS.items() if m.trained)
+def reproduced_methods() -> tuple[str, ...]:
+    """The methods a reproduction compares by default (``Method.reproduced``), in registry
+    order."""
+    return tuple(name for name, m in METHODS.items() if m.reproduced)
 
 
-def predictor_kinds() -> tuple[str, ...]:
-    """The frozen predictor kinds some method reads, in registry order."""
-    kinds = (m.predictor_kind for m in METHODS.values())
+def selected(names: Iterable[str] | None = None) -> dict[str, Method]:
+    """The registry's entries named in ``names`` (default ``reproduced_methods()``), in
+    registry order."""
+    chosen = set(reproduced_methods() if names is None else names)
+    return {name: m for name, m in METHODS.items() if name in chosen}
+
+
+def trained_methods(names: Iterable[str] | None = None) -> tuple[str, ...]:
+    """Names of the methods PPO trains among ``names`` (default: a default reproduction's),
+    in registry order."""
+    return tuple(name for name, m in selected(names).items() if m.trained)
+
+
+def predictor_kinds(names: Iterable[str] | None = None) -> tuple[str, ...]:
+    """The frozen predictor kinds the methods ``names`` read (default: a default
+    reproduction's), in registry order."""
+    kinds = (m.predictor_kind for m in selected(names).values())
     return tuple(dict.fromkeys(k for k in kinds if k is not None))
 
 
-def paper_claims() -> tuple[tuple[str, str], ...]:
-    """The paper's high-speed ordering as (winner, loser) pairs."""
-    return tuple((name, other) for name, m in METHODS.items() for other in m.beats)
+def paper_claims(names: Iterable[str] | None = None) -> tuple[tuple[str, str], ...]:
+    """The high-speed ordering claims as (winner, loser) pairs among ``names`` (default: a
+    default reproduction's methods): the paper's, and ``st_rl > sp_rl`` of the tracker."""
+    chosen = selected(names)
+    return tuple(
+        (name, other) for name, m in chosen.items() for other in m.beats if other in chosen
+    )
+
+
+def check_selection(names: Iterable[str]) -> None:
+    """Raise ValueError naming an unknown method, or one whose policy source is missing."""
+    names = tuple(names)
+    for name in names:
+        m = get_method(name)
+        if m.policy_source not in names:
+            raise ValueError(
+                f"method {name!r} is evaluated with {m.policy_source!r}'s policy: "
+                f"add {m.policy_source} to --methods"
+            )
 
 
 @struct.dataclass

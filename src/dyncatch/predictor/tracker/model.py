@@ -22,14 +22,12 @@ import jax
 import jax.numpy as jnp
 from flax import struct
 
+from dyncatch.predictor.config import TRACKER
 from dyncatch.predictor.tracker.config import TrackerCfg
 from dyncatch.predictor.tracker.memory import Memory, blank_memory, capture_frame_point, ingest
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.geometry import rotate, world_to_body, wrap_angle
 from dyncatch.sim.state import EnvState
-
-TRACKER = "tracker"
-"""The predictor kind of the tracker (``Method.velocity_input``)."""
 
 Parts = dict[str, jax.Array]
 
