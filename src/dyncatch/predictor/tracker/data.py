@@ -46,13 +46,15 @@ class TrackSamples:
     """(N, 2) the newest sighting, capture frame (the sample-and-hold estimate)."""
     since_sighting_s: np.ndarray
     """(N,) time since the newest sighting's capture."""
+    remembered: np.ndarray
+    """(N,) how many sightings the memory held (1 to ``TrackerCfg.memory``)."""
     env_index: np.ndarray
     """(N,) the environment each sample came from."""
 
 
 def episode_track(key: jax.Array, world: WorldCfg, cfg: CollectCfg, tracker: Tracker, steps: int):
     """One environment's episode of ``steps`` control steps (static) -> per step
-    (x (T, D), base (T, 4), label (T, 4), hold (T, 2), tau (T,), valid (T,))."""
+    (x (T, D), base (T, 4), label (T, 4), hold (T, 2), tau (T,), count (T,), valid (T,))."""
     k_reset, k_first, k_frames = jax.random.split(key, 3)
     period = period_steps(world)
 
@@ -66,7 +68,8 @@ def episode_track(key: jax.Array, world: WorldCfg, cfg: CollectCfg, tracker: Tra
             ]
         )
         tau = state.sensor.time_since_seen_s
-        return x, base, label, memory.sight_m[0], tau, memory.valid[0]
+        count = jnp.sum(memory.valid.astype(jnp.int32))
+        return x, base, label, memory.sight_m[0], tau, count, memory.valid[0]
 
     def control(carry, t):
         state, plan, memory = carry
@@ -113,13 +116,15 @@ def collect_track(
     parts = []
     for c in range(chunks):
         first = c * cfg.envs_per_chunk
-        x, base, label, hold, tau, ok = jax.device_get(
+        x, base, label, hold, tau, count, ok = jax.device_get(
             _collect_chunk(key, jnp.asarray(first), world, cfg, tracker, steps, every)
         )
         env = np.broadcast_to((first + np.arange(cfg.envs_per_chunk))[:, None], ok.shape)
         keep = ok & (env < envs)
         parts.append(
-            TrackSamples(x[keep], base[keep], label[keep], hold[keep], tau[keep], env[keep])
+            TrackSamples(
+                x[keep], base[keep], label[keep], hold[keep], tau[keep], count[keep], env[keep]
+            )
         )
         if on_chunk is not None:
             on_chunk(min(first + cfg.envs_per_chunk, envs) * steps)
