@@ -58,18 +58,21 @@ def _predictor_done(d: Path) -> bool:
 
 def _predictor_job(plan: Plan, out: Path, behavior: str, kind: str, progress=None) -> None:
     from dyncatch.predictor.pipeline import PredictorTrainCfg, train_predictor
+    from dyncatch.predictor.tracker.config import TrackerTrainCfg
 
     d = predictor_dir(out, behavior, kind)
     if _predictor_done(d):
         return
+    train = _predictor_train(plan)
     cfg = PredictorTrainCfg(
         behavior=behavior,
         kind=kind,
         steps=plan.predictor_steps,
         out=d,
         eval_steps=plan.table_ii_eval_steps,
-        train=_predictor_train(plan),
+        train=train,
         world=plan.world,
+        tracker_train=TrackerTrainCfg(updates=train.updates, log_every=train.log_every),
     )
     train_predictor(cfg, progress)
 
