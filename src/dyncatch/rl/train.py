@@ -4,7 +4,10 @@ One iteration = a ``lax.scan`` rollout of ``num_steps`` over ``num_envs`` auto-r
 environments, GAE with time-out bootstrapping, then ``update_epochs`` x ``num_minibatches``
 Adam steps with an adaptive-KL learning rate, all inside a single compiled function. The
 state is a pytree, so a run can be ``vmap``-ed over seeds. ``env`` is any backend of the
-environment protocol (``dyncatch.sim.api``); a ``WorldCfg`` means the JAX world.
+environment protocol (``dyncatch.sim.api``); a ``WorldCfg`` means the JAX world. The
+policy's input function may carry a state per environment (the tracker's memory,
+``rl.methods.MethodObs.init_carry`` / ``step``): it rides in ``TrainState.obs_carry`` and is
+started afresh where the batched auto-reset starts a new episode.
 
 Given a ``jax.sharding.Mesh`` with a ``"batch"`` axis, the environment batch and the PPO
 minibatches are constrained to be split along it (data parallel: each device steps its
