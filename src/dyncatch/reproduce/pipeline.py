@@ -246,12 +246,19 @@ def render_report(r: dict, plan: Plan) -> str:
         "",
         "![Table II](table_ii/table_ii.png)",
         "",
-        "Frozen predictors used by P+RL / SP+RL / SP+FP (held-out error, m/s):",
+        "Frozen predictors the methods read (held-out velocity error, m/s; the tracker's is "
+        "its current velocity's, with its 50 Hz position error and coverage95):",
         "",
     ]
     for p in r["predictors"]:
+        track = ""
+        if "position_error_m" in p:
+            track = (
+                f", position {p['position_error_m']:.3f} m (last sighting "
+                f"{p['hold_position_error_m']:.3f} m), coverage95 {p['coverage95']:.3f}"
+            )
         lines.append(
-            f"- {p['behavior']} {p['kind']}: {p['error_mps']:.3f} "
+            f"- {p['behavior']} {p['kind']}: {p['error_mps']:.3f}{track} "
             f"({p['budget_steps'] / 1e6:g} M steps)"
         )
     if r["videos"]:
