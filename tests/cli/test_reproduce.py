@@ -11,7 +11,7 @@ import pytest
 
 from dyncatch.cli.main import main, parse
 from dyncatch.policies.registry import BASELINES
-from dyncatch.rl.methods import METHODS, paper_claims, trained_methods
+from dyncatch.rl.methods import paper_claims, selected, trained_methods
 from dyncatch.sim.behaviors import BEHAVIORS, Behavior, registered_behavior
 
 # A throw-away behaviour: straight lines at the speed cap, sliding along walls. Registering
@@ -60,7 +60,7 @@ def quick(tmp_path_factory):
 
 def test_every_table_and_figure_is_written(quick):
     behaviors = ["straight", "reactive"]
-    filmed = [name for name, m in METHODS.items() if m.filmed]
+    filmed = [name for name, m in selected().items() if m.filmed]
     for name in (
         "report.md",
         "results.json",
@@ -77,7 +77,8 @@ def test_every_table_and_figure_is_written(quick):
     for heading in ("Table I: straight", "Table II", "Fig. 5", "Fig. 6", "ordering"):
         assert heading in report, heading
     assert "not the paper's Isaac Gym set-up" in report
-    for m in METHODS.values():
+    # The methods of a default reproduction, not the opt-in ones (st_rl, st_fp).
+    for m in selected().values():
         assert f"| {m.label} |" in report, m.label
     table_ii = (quick / "table_ii" / "table_ii.md").read_text()
     assert "| straight | vanilla |" in table_ii and "| straight | self_aware |" in table_ii
@@ -87,9 +88,9 @@ def test_results_json_agrees_with_an_independent_evaluation(quick, capsys):
     r = json.loads((quick / "results.json").read_text())
     assert (r["scene"], r["setting"]) == (r["plan"]["world"]["scene"]["name"], "default")
     cells = r["table_i"]["cells"]
-    assert {c["method"] for c in cells} == {*METHODS, *BASELINES}
+    assert {c["method"] for c in cells} == {*selected(), *BASELINES}
     assert {c["behavior"] for c in cells} == {"straight"}
-    assert len(cells) == (len(METHODS) + len(BASELINES)) * 2  # two speeds
+    assert len(cells) == (len(selected()) + len(BASELINES)) * 2  # two speeds
     # A baseline cell equals `dyncatch eval` run by hand in the plan's world.
     plan_world = ["--world.episode.duration-s", "2.0"]
     argv = ["eval", "pursuit", "--behavior", "straight", "--speeds", "0.8", "1.8"]

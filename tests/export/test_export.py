@@ -22,7 +22,9 @@ from dyncatch.predictor.checkpoint import save as save_predictor
 from dyncatch.predictor.config import PredictorCfg
 from dyncatch.predictor.features import history_from_state
 from dyncatch.predictor.model import Predictor
-from dyncatch.rl.methods import METHODS, predictor_kinds, trained_methods
+from dyncatch.predictor.tracker.config import TrackerCfg
+from dyncatch.predictor.tracker.model import Tracker
+from dyncatch.rl.methods import METHODS, predictor_kinds, selected, trained_methods
 from dyncatch.rl.policy import load_run
 from dyncatch.rl.runner import TrainRunner
 from dyncatch.sim.api import JaxCatchEnv
@@ -64,7 +66,7 @@ def runs(tmp_path_factory):
         else:
             runner = TrainRunner(parse(argv)[1])
             runner.save(runner.initial_state())
-    for name, m in METHODS.items():
+    for name, m in selected().items():
         argv = ["export", str(root / m.policy_source), "--out", str(root / f"{name}_onnx")]
         if not m.trained:
             argv += ["--as-method", name, "--predictor", str(preds[m.predictor_kind])]
@@ -119,7 +121,7 @@ def _jax_policy(policy, states, obs):
     return x, command
 
 
-@pytest.mark.parametrize("method", list(METHODS))
+@pytest.mark.parametrize("method", list(selected()))
 def test_the_graphs_equal_the_jax_policy_and_predictor(runs, recorded, method):
     root, _ = runs
     out, policy = root / f"{method}_onnx", _load(runs, method).policy
@@ -308,6 +310,17 @@ def test_bad_input_is_a_one_line_error(runs, tmp_path, capsys):
             "cannot be evaluated as",
         ),
     ]
+    tracker = Tracker(TrackerCfg(hidden=(8,)))
+    save_predictor(tmp_path / "tracker.safetensors", tracker, tracker.init(jax.random.key(0)))
+    cases.append(
+        (
+            [
+                *["export", str(root / "gt_rl"), "--out", str(tmp_path / "o")],
+                *["--as-method", "st_fp", "--predictor", str(tmp_path / "tracker.safetensors")],
+            ],
+            "carries a memory",
+        )
+    )
     for argv, needle in cases:
         capsys.readouterr()
         assert main(argv) == 2, argv

@@ -25,7 +25,8 @@ def _state_after(steps):
 
 
 def test_registry_holds_the_paper_methods():
-    assert set(METHODS) == {"rl", "p_rl", "sp_rl", "gt_rl", "sp_fp"}
+    assert set(METHODS) == {"rl", "p_rl", "sp_rl", "gt_rl", "sp_fp", "st_rl", "st_fp"}
+    assert {m for m, v in METHODS.items() if not v.reproduced} == {"st_rl", "st_fp"}
     assert METHODS["sp_fp"].trained_as == "gt_rl"
 
 
@@ -93,3 +94,53 @@ def test_a_predictor_method_trains_one_iteration_with_the_predictor_inside_the_j
     # 30 steps cross a camera frame (step 25): some envs had two consecutive sightings,
     # so the running statistics of the validity flag moved off zero.
     assert float(ts.norm.mean[-1]) > 0.0
+
+
+def test_stateless_methods_carry_nothing_and_step_is_their_input():
+    """The carry seam leaves every method but the tracker's as it was: an empty carry (no
+    leaves, so checkpoints hold the same arrays) and ``step`` returning ``__call__``."""
+    predictor = Predictor.for_world(PredictorCfg(kind="self_aware"), WORLD)
+    params = predictor.init(jax.random.key(0))
+    s, obs = _state_after(30)
+    for name in ("rl", "gt_rl", "sp_rl"):
+        f = method_obs(name, predictor, params) if name == "sp_rl" else method_obs(name)
+        assert not f.stateful
+        carry = f.init_carry(s)
+        assert carry == () and jax.tree.leaves(carry) == []
+        carry, x = f.step(carry, s, obs)
+        assert carry == ()
+        np.testing.assert_array_equal(x, f(s, obs))
+
+
+def test_a_tracker_policy_resets_its_carry_at_episode_start_inside_the_auto_reset():
+    """st_rl trains with the tracker's memory carried per environment. Episodes of 60
+    steps, rollouts of 40: after the first rollout (camera frames at steps 0 and 25) some
+    memories hold two sightings; after the second every environment is 20 steps into a new
+    episode (one frame, at its step 0), so a memory holding more than one sighting, or one
+    when the new episode saw nothing, kept the old episode's carry."""
+    from dyncatch.predictor.tracker.config import TrackerCfg
+    from dyncatch.predictor.tracker.model import Tracker
+    from dyncatch.rl.config import PPOCfg
+    from dyncatch.rl.methods import TRACK_INPUTS
+    from dyncatch.rl.train import make_train
+
+    world = WORLD.replace(episode=WORLD.episode.replace(duration_s=1.2))
+    tracker = Tracker.for_world(TrackerCfg(hidden=(8,)), world)
+    f = method_obs("st_rl", tracker, tracker.init(jax.random.key(0)))
+    assert f.stateful
+    ppo = PPOCfg(num_envs=8, num_steps=40, num_minibatches=1, update_epochs=1, hidden_sizes=(8,))
+    init, iterate, _ = make_train(world, ppo, f)
+    iterate = jax.jit(iterate)
+    ts = jax.jit(init)(jax.random.key(0))
+    assert not bool(ts.obs_carry.valid.any())
+    assert ts.norm.mean.shape == (OBS_DIM + sum(size for _, size, _ in TRACK_INPUTS),)
+    ts, _ = iterate(ts)
+    assert bool(ts.obs_carry.valid[:, 1].any())
+    ts, metrics = iterate(ts)
+    assert float(metrics["episodes"]) >= 8
+    steps = np.asarray(ts.env_state.step)
+    live = steps == 20  # the rest were caught early and restarted later
+    assert live.sum() >= 6
+    valid = np.asarray(ts.obs_carry.valid)[live]
+    assert not valid[:, 1:].any()
+    np.testing.assert_array_equal(valid[:, 0], np.asarray(ts.env_state.sensor.ever_seen)[live])

@@ -85,8 +85,10 @@ def run_ppo_bench(cmd: PPOBenchCmd) -> dict:
 
     from dyncatch.bench.machine import machine_info
     from dyncatch.bench.ppo_bench import mlp_flops, run_ppo_benchmark
-    from dyncatch.predictor.config import PredictorCfg
+    from dyncatch.predictor.config import TRACKER, PredictorCfg
     from dyncatch.predictor.model import Predictor
+    from dyncatch.predictor.tracker.config import TrackerCfg
+    from dyncatch.predictor.tracker.model import Tracker
     from dyncatch.rl.config import validate_ppo
     from dyncatch.rl.methods import get_method
     from dyncatch.sim.api import JaxCatchEnv
@@ -104,14 +106,19 @@ def run_ppo_bench(cmd: PPOBenchCmd) -> dict:
     kind = method.predictor_kind
     predictor = params = None
     pred_flops = 0
-    if kind is not None:
+    if kind == TRACKER:
+        predictor = Tracker.for_world(TrackerCfg(), world)
+        params = predictor.init(jax.random.key(0))
+        pred_flops = mlp_flops([predictor.input_dim, *predictor.cfg.hidden, 8])
+    elif kind is not None:
         predictor = Predictor.for_world(PredictorCfg(kind=kind), world)
         params = predictor.init(jax.random.key(0))
         pred_flops = mlp_flops([predictor.input_dim, *predictor.cfg.hidden, 2])
     obs_fn = method.obs_fn(predictor, params)
     env = JaxCatchEnv(world)
     state = env.reset(jax.random.key(0))
-    obs_dim = int(obs_fn(state, env.observe(state)).shape[0])
+    _, x = obs_fn.step(obs_fn.init_carry(state), state, env.observe(state))
+    obs_dim = int(x.shape[0])
     result = run_ppo_benchmark(
         env, ppo, obs_fn, obs_dim, cmd.iterations, pred_flops, cmd.gemm_rows, cmd.seeds
     )

@@ -11,9 +11,10 @@ import json
 import time
 from pathlib import Path
 
-from dyncatch.predictor.config import CollectCfg, Frame, PredictorCfg, TrainCfg
+from dyncatch.predictor.config import TRACKER, CollectCfg, Frame, Kind, PredictorCfg, TrainCfg
 from dyncatch.predictor.pipeline import PredictorTrainCfg
-from dyncatch.predictor.table import PAPER_BUDGETS, all_behaviors
+from dyncatch.predictor.table import PAPER_BUDGETS, all_behaviors, all_kinds
+from dyncatch.predictor.tracker.config import TrackerCfg, TrackerDataCfg, TrackerTrainCfg
 from dyncatch.sim.config import WorldCfg
 from dyncatch.utils.cli_types import BehaviorName
 
@@ -40,8 +41,11 @@ class PredictorTableCmd:
     """Interaction budgets in simulator steps."""
     behaviors: tuple[BehaviorName, ...] = dataclasses.field(default_factory=all_behaviors)
     """Target behaviours (rows); default every registered behaviour."""
+    kinds: tuple[Kind, ...] = dataclasses.field(default_factory=all_kinds)
+    """Predictor kinds (default every frame predictor's); name tracker for the tracker's rows
+    (position_error_m, hold_position_error_m, coverage95 and an error-vs-time plot)."""
     frame: Frame = "egocentric"
-    """Input frame of both kinds."""
+    """Input frame of the frame predictors."""
     eval_steps: int = 500_000
     """Interaction steps of the held-out episodes, per behaviour."""
     seed: int = 0
@@ -52,6 +56,12 @@ class PredictorTableCmd:
     """Interaction data."""
     world: WorldCfg = WorldCfg()
     """The simulated world."""
+    tracker: TrackerCfg = TrackerCfg()
+    """The tracker's memory and network (kinds tracker)."""
+    tracker_train: TrackerTrainCfg = TrackerTrainCfg()
+    """The tracker's optimisation (kinds tracker)."""
+    tracker_data: TrackerDataCfg = TrackerDataCfg()
+    """The tracker's interaction data (kinds tracker; collect is the frame predictors')."""
 
 
 def run_predictor_table(cmd: PredictorTableCmd) -> list[dict]:
@@ -59,13 +69,21 @@ def run_predictor_table(cmd: PredictorTableCmd) -> list[dict]:
 
     from dyncatch.predictor.config import validate
     from dyncatch.predictor.pipeline import check_world
-    from dyncatch.predictor.table import TableCfg, markdown, run_table, write
+    from dyncatch.predictor.table import TRACKER_KEYS, TableCfg, markdown, run_table, write
+    from dyncatch.predictor.tracker.config import validate_tracker
 
     cfg = PredictorCfg(frame=cmd.frame)
     validate(cfg, cmd.train, cmd.collect)
     check_world(cmd.world, cmd.behaviors, cmd.budgets, cmd.collect)
+    if TRACKER in cmd.kinds:
+        validate_tracker(cmd.tracker, cmd.tracker_train, cmd.tracker_data)
+        check_world(cmd.world, cmd.behaviors, cmd.budgets, cmd.tracker_data.collect)
     table = TableCfg(
-        behaviors=cmd.behaviors, budgets=cmd.budgets, eval_steps=cmd.eval_steps, seed=cmd.seed
+        behaviors=cmd.behaviors,
+        kinds=cmd.kinds,
+        budgets=cmd.budgets,
+        eval_steps=cmd.eval_steps,
+        seed=cmd.seed,
     )
     console = Console(stderr=cmd.json)
     t0 = time.perf_counter()
@@ -77,13 +95,14 @@ def run_predictor_table(cmd: PredictorTableCmd) -> list[dict]:
                 f"{r['error_mps']:.3f} m/s"
             )
 
-        rows = run_table(table, cfg, cmd.train, cmd.collect, cmd.world, on_cell)
+        setup = (cmd.tracker, cmd.tracker_train, cmd.tracker_data)
+        rows = run_table(table, cfg, cmd.train, cmd.collect, cmd.world, on_cell, setup)
     wall_s = time.perf_counter() - t0
     header = f"Table II, regenerated in {wall_s:.0f} s (seed {cmd.seed})."
     paths = write(rows, cmd.out, header)
     if cmd.json:
-        keys = ("behavior", "kind", "budget_steps", "error_mps")
-        print(json.dumps({"rows": [{k: r[k] for k in keys} for r in rows]}))
+        keys = ("behavior", "kind", "budget_steps", "error_mps", *TRACKER_KEYS)
+        print(json.dumps({"rows": [{k: r[k] for k in keys if k in r} for r in rows]}))
     else:
         console.print(markdown(rows))
         console.print(f"{header} Wrote {', '.join(str(p) for p in paths)}")

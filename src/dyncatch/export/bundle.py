@@ -76,6 +76,11 @@ def export(run: Run, out: str | Path, source: dict | None = None) -> dict:
     policy = run.policy
     if not isinstance(policy.net, ActorCritic):
         raise ValueError(f"cannot export a {type(policy.net).__name__}: only ActorCritic")
+    if policy.obs_fn.stateful:
+        raise ValueError(
+            f"cannot export {run.method!r}: its tracker carries a memory between steps, "
+            "which the ONNX export does not write yet (export a stateless method)"
+        )
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     world, obs_fn = run.world, policy.obs_fn

@@ -1,5 +1,5 @@
-"""Save and load a predictor: arrays in safetensors, the config as JSON in the same file's
-header (no pickle), written atomically (temporary file + ``os.replace``).
+"""Save and load a predictor or a tracker: arrays in safetensors, the config as JSON in the
+same file's header (no pickle), written atomically (temporary file + ``os.replace``).
 
 Loading checks the file's config against the one expected and every array's shape, and
 raises ``CheckpointError`` (a ``ValueError``, so the CLI prints one line) naming what to do.
@@ -20,8 +20,11 @@ from safetensors.numpy import load_file, save_file
 
 from dyncatch.predictor.config import PredictorCfg
 from dyncatch.predictor.model import Predictor
+from dyncatch.predictor.tracker.config import TrackerCfg
+from dyncatch.predictor.tracker.model import Tracker
 
 FORMAT = "dyncatch.predictor/1"
+TRACKER_FORMAT = "dyncatch.tracker/1"
 _SEP = "/"
 
 
@@ -61,13 +64,25 @@ def predictor_from_json(d: dict) -> Predictor:
     return Predictor(PredictorCfg(**cfg), float(d["arena_size_m"]), float(d["frame_dt_s"]))
 
 
-def save(path: str | os.PathLike, predictor: Predictor, params: dict, info: dict | None = None):
-    """Write ``params`` and ``predictor`` (plus optional JSON-able ``info``) to ``path``."""
+def tracker_from_json(d: dict) -> Tracker:
+    cfg = dict(d["cfg"])
+    cfg["hidden"] = tuple(cfg["hidden"])
+    return Tracker(TrackerCfg(**cfg), float(d["control_dt_s"]))
+
+
+def save(
+    path: str | os.PathLike,
+    predictor: Predictor | Tracker,
+    params: dict,
+    info: dict | None = None,
+):
+    """Write ``params`` and ``predictor`` (a frame predictor or a tracker, plus optional
+    JSON-able ``info``) to ``path``."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     meta = {
-        "format": FORMAT,
-        "predictor": json.dumps(predictor_to_json(predictor)),
+        "format": TRACKER_FORMAT if predictor.stateful else FORMAT,
+        "predictor": json.dumps(dataclasses.asdict(predictor)),
         "info": json.dumps(info or {}),
     }
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
@@ -80,7 +95,7 @@ def save(path: str | os.PathLike, predictor: Predictor, params: dict, info: dict
             os.remove(tmp)
 
 
-def _read(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
+def _read(path: Path, formats: tuple[str, ...] = (FORMAT,)) -> tuple[dict, dict[str, np.ndarray]]:
     if not path.is_file():
         raise FileNotFoundError(f"no predictor checkpoint at {path}: train one first")
     try:
@@ -89,8 +104,8 @@ def _read(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
         with safe_open(str(path), framework="numpy") as f:
             meta = f.metadata() or {}
         flat = load_file(str(path))
-        if meta.get("format") != FORMAT:
-            raise CheckpointError(f"{path} is not a {FORMAT} checkpoint")
+        if meta.get("format") not in formats:
+            raise CheckpointError(f"{path} is not a {' or '.join(formats)} checkpoint")
         return meta, flat
     except CheckpointError:
         raise
@@ -117,6 +132,10 @@ def load(path: str | os.PathLike, expected: Predictor | None = None) -> tuple[Pr
             f"{path} does not match the predictor config ({'; '.join(diff)}): "
             "pass the config it was trained with or retrain"
         )
+    return predictor, _checked_params(path, predictor, flat)
+
+
+def _checked_params(path: Path, predictor: Predictor | Tracker, flat: dict) -> dict:
     reference = _flatten(jax.device_get(predictor.init(jax.random.key(0))))
     if set(reference) != set(flat):
         missing = sorted(set(reference) ^ set(flat))[:3]
@@ -127,8 +146,25 @@ def load(path: str | os.PathLike, expected: Predictor | None = None) -> tuple[Pr
                 f"{path}: array {name} has shape {flat[name].shape}, the config needs "
                 f"{ref.shape}: retrain it"
             )
-    return predictor, _unflatten(flat)
+    return _unflatten(flat)
+
+
+def load_tracker(path: str | os.PathLike) -> tuple[Tracker, dict]:
+    """(tracker, params) from a tracker checkpoint at ``path``."""
+    path = Path(path)
+    meta, flat = _read(path, (TRACKER_FORMAT,))
+    try:
+        tracker = tracker_from_json(json.loads(meta["predictor"]))
+    except (KeyError, TypeError, ValueError) as err:
+        raise CheckpointError(f"{path} has an unreadable config ({err}): retrain it") from None
+    return tracker, _checked_params(path, tracker, flat)
+
+
+def load_any(path: str | os.PathLike) -> tuple[Predictor | Tracker, dict]:
+    """A frame predictor's or a tracker's checkpoint, whichever ``path`` holds."""
+    meta, _ = _read(Path(path), (FORMAT, TRACKER_FORMAT))
+    return (load_tracker if meta["format"] == TRACKER_FORMAT else load)(path)
 
 
 def read_info(path: str | os.PathLike) -> dict:
-    return json.loads(_read(Path(path))[0].get("info", "{}"))
+    return json.loads(_read(Path(path), (FORMAT, TRACKER_FORMAT))[0].get("info", "{}"))

@@ -7,7 +7,9 @@ from typing import Literal
 
 from dyncatch.sim.config import WorldCfg
 
-Kind = Literal["vanilla", "self_aware"]
+Kind = Literal["vanilla", "self_aware", "tracker"]
+TRACKER = "tracker"
+"""The kind that is not a frame predictor: ``dyncatch.predictor.tracker``."""
 Frame = Literal["world", "relative", "egocentric"]
 
 

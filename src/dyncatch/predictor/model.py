@@ -43,6 +43,13 @@ class Predictor:
     frame_dt_s: float = 0.5
     """Time between camera frames (1 / f_vis); labels are displacements over it."""
 
+    stateful = False
+    """Reads only the environment state (the tracker carries a memory)."""
+
+    @property
+    def kind(self) -> str:
+        return self.cfg.kind
+
     @classmethod
     def for_world(cls, cfg: PredictorCfg, world: WorldCfg) -> Predictor:
         return cls(cfg, float(world.arena.size_m), 1.0 / float(world.sensor.rate_hz))

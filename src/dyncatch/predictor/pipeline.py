@@ -12,7 +12,8 @@ import json
 import time
 from pathlib import Path
 
-from dyncatch.predictor.config import CollectCfg, Frame, Kind, PredictorCfg, TrainCfg
+from dyncatch.predictor.config import TRACKER, CollectCfg, Frame, Kind, PredictorCfg, TrainCfg
+from dyncatch.predictor.tracker.config import TrackerCfg, TrackerDataCfg, TrackerTrainCfg
 from dyncatch.sim.config import WorldCfg
 from dyncatch.utils.cli_types import BehaviorName
 from dyncatch.utils.progress import NoProgress, Progress
@@ -25,7 +26,8 @@ class PredictorTrainCfg:
     behavior: BehaviorName = "reactive"
     """Target behaviour, a key of dyncatch.sim.behaviors.BEHAVIORS."""
     kind: Kind = "self_aware"
-    """vanilla (target observations only) or self_aware (plus the robot's states)."""
+    """vanilla (target observations only), self_aware (plus the robot's states) or tracker
+    (the current position and velocity at 50 Hz, with uncertainty: docs/tracker.md)."""
     steps: int = 2_000_000
     """Interaction budget in simulator (control) steps."""
     out: Path = Path("runs/predictor")
@@ -44,6 +46,12 @@ class PredictorTrainCfg:
     """Interaction data."""
     world: WorldCfg = WorldCfg()
     """The simulated world (the behavior flag overrides world.target.behavior)."""
+    tracker: TrackerCfg = TrackerCfg()
+    """The tracker's memory and network (kind tracker)."""
+    tracker_train: TrackerTrainCfg = TrackerTrainCfg()
+    """The tracker's optimisation (kind tracker; train, frame and hidden are unused)."""
+    tracker_data: TrackerDataCfg = TrackerDataCfg()
+    """The tracker's interaction data (kind tracker; collect is unused)."""
 
 
 def check_world(world: WorldCfg, behaviors, budgets, collect: CollectCfg) -> None:
@@ -71,6 +79,10 @@ def train_predictor(cfg: PredictorTrainCfg, progress: Progress | None = None) ->
     from dyncatch.predictor.model import Predictor
     from dyncatch.predictor.train import encode_samples, evaluate, fit
 
+    if cfg.kind == TRACKER:
+        from dyncatch.predictor.tracker.pipeline import train_tracker
+
+        return train_tracker(cfg, progress)
     progress = progress or NoProgress()
     predictor_cfg = PredictorCfg(kind=cfg.kind, frame=cfg.frame, hidden=cfg.hidden)
     validate(predictor_cfg, cfg.train, cfg.collect)

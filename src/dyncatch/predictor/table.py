@@ -3,6 +3,10 @@
 Each behaviour's training data are collected once at the largest budget; smaller budgets
 train on its prefix (``data.budget_count``). Errors are measured on held-out episodes drawn
 from a different seed. Writing files (Markdown, CSV, PNG) lives at the end, in ``write``.
+
+The ``tracker`` kind (not in the default kinds; ``--kinds tracker``) has rows of its own
+(``predictor.tracker.table``): its ``error_mps`` is the current velocity's error, and it adds
+``position_error_m``, ``hold_position_error_m`` and ``coverage95``.
 """
 
 from __future__ import annotations
@@ -15,9 +19,10 @@ from pathlib import Path
 
 import jax
 
-from dyncatch.predictor.config import CollectCfg, PredictorCfg, TrainCfg
+from dyncatch.predictor.config import TRACKER, CollectCfg, PredictorCfg, TrainCfg
 from dyncatch.predictor.data import budget_count, collect
 from dyncatch.predictor.model import Predictor
+from dyncatch.predictor.tracker.config import TrackerCfg, TrackerDataCfg, TrackerTrainCfg
 from dyncatch.predictor.train import encode_samples, evaluate, fit
 from dyncatch.sim.config import WorldCfg
 
@@ -55,7 +60,8 @@ class TableCfg:
     behaviors: tuple[str, ...] = field(default_factory=all_behaviors)
     """Rows: target behaviours (default every registered one)."""
     kinds: tuple[str, ...] = field(default_factory=all_kinds)
-    """Predictor kinds per behaviour (default every kind)."""
+    """Predictor kinds per behaviour (default every frame predictor's; ``tracker`` too if
+    named)."""
     budgets: tuple[int, ...] = PAPER_BUDGETS
     """Columns: interaction budgets in simulator steps."""
     eval_steps: int = 500_000
@@ -78,17 +84,30 @@ def run_table(
     collect_cfg: CollectCfg,
     world: WorldCfg,
     on_cell: Callable[[dict], None] | None = None,
+    tracker: tuple[TrackerCfg, TrackerTrainCfg, TrackerDataCfg] | None = None,
 ) -> list[dict]:
     """Rows ``{"behavior", "kind", "budget_steps", "error_mps", "paper_error_mps",
-    "train_samples", "eval_samples", "seconds"}``, one per cell."""
+    "train_samples", "eval_samples", "seconds"}``, one per cell (tracker rows: see
+    ``predictor.tracker.table``; ``tracker`` is its configs, default the library's)."""
+    from dyncatch.predictor.tracker.table import tracker_rows
+
     rows = []
     key = jax.random.key(table.seed)
     k_train, k_eval, k_fit = jax.random.split(key, 3)
+    frame_kinds = [k for k in table.kinds if k != TRACKER]
     for behavior in table.behaviors:
         w = world.with_behavior(behavior)
+        if TRACKER in table.kinds:
+            setup = tracker or (TrackerCfg(), TrackerTrainCfg(), TrackerDataCfg())
+            keys = (k_train, k_eval, k_fit)
+            rows += tracker_rows(
+                behavior, w, table.budgets, table.eval_steps, keys, *setup, on_cell
+            )
+        if not frame_kinds:
+            continue
         train, _ = collect(k_train, w, collect_cfg, max(table.budgets))
         held_out, _ = collect(k_eval, w, collect_cfg, table.eval_steps)
-        for kind in table.kinds:
+        for kind in frame_kinds:
             predictor = Predictor.for_world(
                 PredictorCfg(kind=kind, frame=predictor_cfg.frame, hidden=predictor_cfg.hidden),
                 w,
@@ -137,20 +156,57 @@ def markdown(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+TRACKER_KEYS = ("position_error_m", "hold_position_error_m", "coverage95")
+"""What a tracker row adds to a Table II row."""
+
+
+def tracker_markdown(rows: list[dict]) -> str:
+    """The tracker's rows: 50 Hz position errors (m) and coverage of the 95 % region."""
+    lines = [
+        "| behavior | budget | position error (m) | last sighting (m) | coverage95 "
+        "| velocity error (m/s) |",
+        "|---|---:|---:|---:|---:|---:|",
+    ]
+    for r in rows:
+        if "position_error_m" in r:
+            lines.append(
+                f"| {r['behavior']} | {r['budget_steps'] / 1e6:g}M | {r['position_error_m']:.3f} "
+                f"| {r['hold_position_error_m']:.3f} | {r['coverage95']:.3f} "
+                f"| {r['error_mps']:.3f} |"
+            )
+    return "\n".join(lines)
+
+
 def write(rows: list[dict], out: Path, header: str = "") -> list[Path]:
-    """table_ii.md, table_ii.csv and table_ii.png (error vs budget) under ``out``."""
+    """table_ii.md, table_ii.csv and table_ii.png (error vs budget) under ``out``; with
+    tracker rows, also tracker_{behavior}_error_vs_time.{csv,png} (error against the time
+    since the last sighting, the largest budget)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from dyncatch.predictor.tracker.pipeline import write_error_vs_time
+
     out.mkdir(parents=True, exist_ok=True)
+    by_time = {
+        r["behavior"]: r["by_time_since_sighting"] for r in rows if "by_time_since_sighting" in r
+    }
+    rows = [{k: v for k, v in r.items() if k != "by_time_since_sighting"} for r in rows]
     md, csv_path, png = out / "table_ii.md", out / "table_ii.csv", out / "table_ii.png"
-    md.write_text((header + "\n\n" if header else "") + markdown(rows) + "\n")
+    text = (header + "\n\n" if header else "") + markdown(rows) + "\n"
+    if by_time:
+        text += "\nTracker (50 Hz, held-out episodes):\n\n" + tracker_markdown(rows) + "\n"
+    md.write_text(text)
     with csv_path.open("w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
+        fields = list(dict.fromkeys(k for r in rows for k in r))
+        writer = csv.DictWriter(f, fieldnames=fields, restval="")
         writer.writeheader()
         writer.writerows(rows)
+    paths = []
+    for behavior, bins in by_time.items():
+        for p in write_error_vs_time(bins, out, behavior):
+            paths.append(p.rename(out / f"tracker_{behavior}_{p.name}"))
     fig, ax = plt.subplots(figsize=(7, 4.5))
     styles = ("--", "-", ":", "-.")
     kinds = list(dict.fromkeys(r["kind"] for r in rows))
@@ -176,4 +232,4 @@ def write(rows: list[dict], out: Path, header: str = "") -> list[Path]:
     fig.tight_layout()
     fig.savefig(png, dpi=120)
     plt.close(fig)
-    return [md, csv_path, png]
+    return [md, csv_path, png, *paths]

@@ -88,7 +88,7 @@ def run(plan: Plan, command: str, log: Callable[[str], None], progress=None) -> 
     cells = aggregate.summarize_cells(t1_rows)
     averages = aggregate.average_column(cells)
     high = [v for v in plan.speeds_mps if v >= 1.6 - 1e-9] or [max(plan.speeds_mps)]
-    claims = paper_claims()
+    claims = paper_claims(plan.method_names)
     checks = aggregate.ordering_checks(cells, high, claims)
     checks += aggregate.ordering_checks(averages, [None], claims)
     fig6_cells = aggregate.summarize_cells(fig6_rows)
@@ -113,9 +113,10 @@ def run(plan: Plan, command: str, log: Callable[[str], None], progress=None) -> 
     figs = out / "figures"
     figs.mkdir(exist_ok=True)
     report.plot_fig5(plan, data, figs / "fig5_learning_curves.png")
+    evaluated = {c["method"] for c in fig6_cells}
     report.plot_fig6(
         fig6_cells,
-        report.policy_order(),
+        [m for m in report.policy_order() if m in evaluated],
         behaviors,
         figs / "fig6_high_speed.png",
         plan.fig6_speed_mps,
@@ -165,7 +166,7 @@ def render_report(r: dict, plan: Plan) -> str:
         f"- machine: {m['cpu']}, {m['cores']} cores, jax {m['jax']} ({m['backend']})",
         f"- wall time: {r['wall']['total_s'] / 60:.1f} min in all "
         f"({r['wall']['this_invocation_s'] / 60:.1f} min in the last invocation)",
-        f"- {plan.seeds} seed(s) x {len(trained_methods())} learned methods x "
+        f"- {plan.seeds} seed(s) x {len(trained_methods(plan.method_names))} learned methods x "
         f"{len(plan.behaviors)} "
         f"behaviours, {plan.train_steps / 1e6:g} M environment steps per run, "
         f"{plan.episodes} evaluation episodes per cell (the same evaluation seeds for every "
@@ -245,12 +246,19 @@ def render_report(r: dict, plan: Plan) -> str:
         "",
         "![Table II](table_ii/table_ii.png)",
         "",
-        "Frozen predictors used by P+RL / SP+RL / SP+FP (held-out error, m/s):",
+        "Frozen predictors the methods read (held-out velocity error, m/s; the tracker's is "
+        "its current velocity's, with its 50 Hz position error and coverage95):",
         "",
     ]
     for p in r["predictors"]:
+        track = ""
+        if "position_error_m" in p:
+            track = (
+                f", position {p['position_error_m']:.3f} m (last sighting "
+                f"{p['hold_position_error_m']:.3f} m), coverage95 {p['coverage95']:.3f}"
+            )
         lines.append(
-            f"- {p['behavior']} {p['kind']}: {p['error_mps']:.3f} "
+            f"- {p['behavior']} {p['kind']}: {p['error_mps']:.3f}{track} "
             f"({p['budget_steps'] / 1e6:g} M steps)"
         )
     if r["videos"]:

@@ -62,6 +62,10 @@ class Plan:
     """Held-out interaction steps per Table II behaviour."""
     table_ii_behaviors: tuple[BehaviorName, ...] | None = None
     """Rows of Table II (default: every registered behaviour)."""
+    methods: tuple[str, ...] | None = None
+    """Methods compared, names of dyncatch.rl.methods.METHODS (default: all but the opt-in
+    ones beyond the paper, st_rl and st_fp; list every method wanted to add them). A method
+    evaluated with another's policy (sp_fp, st_fp) needs that one (gt_rl) listed too."""
     videos: bool = True
     """One GIF per behaviour of the filmed method's policy."""
     vmap_seeds: bool = True
@@ -112,10 +116,17 @@ class Plan:
         return self.table_ii_behaviors if self.table_ii_behaviors is not None else all_behaviors()
 
     @property
+    def method_names(self) -> tuple[str, ...]:
+        """The methods compared, in registry order."""
+        from dyncatch.rl.methods import selected
+
+        return tuple(selected(self.methods))
+
+    @property
     def training_runs(self) -> int:
         from dyncatch.rl.methods import trained_methods
 
-        return len(trained_methods()) * len(self.behaviors) * self.seeds
+        return len(trained_methods(self.method_names)) * len(self.behaviors) * self.seeds
 
     def to_json(self) -> dict:
         """Everything that shapes the results (all fields but where they go and who runs
@@ -172,14 +183,16 @@ def estimate_s(plan: Plan) -> float:
     """A rough wall-time estimate (seconds) for the whole plan on 2 cores."""
     from dyncatch.policies.registry import BASELINES
     from dyncatch.predictor.table import all_kinds
-    from dyncatch.rl.methods import METHODS, predictor_kinds
+    from dyncatch.rl.methods import predictor_kinds
 
     columns = plan.fig6_columns
     train = plan.training_runs * (plan.train_steps / EST_SAMPLES_PER_S + EST_COMPILE_S_PER_RUN)
-    policies = len(METHODS) * plan.seeds + len(BASELINES)
+    policies = len(plan.method_names) * plan.seeds + len(BASELINES)
     cells = policies * (len(plan.speeds_mps) * len(plan.table_i_rows) + len(columns))
     evaluate = cells * (plan.episodes / 1000 * EST_EVAL_S_PER_1000_EPISODES + 1.0)
-    pred_steps = len(predictor_kinds()) * len(plan.behaviors) * plan.predictor_steps
+    pred_steps = (
+        len(predictor_kinds(plan.method_names)) * len(plan.behaviors) * plan.predictor_steps
+    )
     pred_steps += len(all_kinds()) * len(plan.table_ii_rows) * max(plan.table_ii_budgets)
     predictors = pred_steps / 1e6 * EST_PREDICTOR_S_PER_M_STEPS + 30 * len(plan.behaviors)
     videos = 30.0 * len(columns) if plan.videos else 0.0
@@ -214,6 +227,12 @@ def validate_plan(plan: Plan) -> Plan:
             "--predictor-steps, --predictor-updates and --table-ii-budgets must be set"
         )
     validate_ppo(plan.ppo)
+    if plan.methods is not None:
+        from dyncatch.rl.methods import check_selection
+
+        if not plan.methods:
+            raise ValueError("--methods needs at least one method (or leave it unset)")
+        check_selection(plan.methods)
     named = (
         ("table-i", plan.table_i_behaviors),
         ("fig6", plan.fig6_behaviors),

@@ -58,24 +58,27 @@ def _predictor_done(d: Path) -> bool:
 
 def _predictor_job(plan: Plan, out: Path, behavior: str, kind: str, progress=None) -> None:
     from dyncatch.predictor.pipeline import PredictorTrainCfg, train_predictor
+    from dyncatch.predictor.tracker.config import TrackerTrainCfg
 
     d = predictor_dir(out, behavior, kind)
     if _predictor_done(d):
         return
+    train = _predictor_train(plan)
     cfg = PredictorTrainCfg(
         behavior=behavior,
         kind=kind,
         steps=plan.predictor_steps,
         out=d,
         eval_steps=plan.table_ii_eval_steps,
-        train=_predictor_train(plan),
+        train=train,
         world=plan.world,
+        tracker_train=TrackerTrainCfg(updates=train.updates, log_every=train.log_every),
     )
     train_predictor(cfg, progress)
 
 
 def train_predictors(plan: Plan, out: Path, executor) -> list[dict]:
-    pairs = [(b, k) for b in plan.behaviors for k in predictor_kinds()]
+    pairs = [(b, k) for b in plan.behaviors for k in predictor_kinds(plan.method_names)]
     executor.run(
         [
             Job(f"predictor {kind} on {behavior}", _predictor_job, (plan, out, behavior, kind))
@@ -156,7 +159,7 @@ def _train_job(
 def train_policies(plan: Plan, out: Path, executor) -> None:
     jobs = []
     for behavior in plan.behaviors:
-        for method in trained_methods():
+        for method in trained_methods(plan.method_names):
             todo = [s for s in range(plan.seeds) if not _run_done(out, behavior, method, s)]
             groups = [tuple(todo)] if plan.vmap_seeds and todo else [(s,) for s in todo]
             for seeds in groups:
@@ -167,11 +170,12 @@ def train_policies(plan: Plan, out: Path, executor) -> None:
 
 
 def policies(plan: Plan) -> list[tuple[str, int | None]]:
-    """(name, seed or None) of every evaluated policy: each method of the registry over
-    seeds, then each baseline."""
+    """(name, seed or None) of every evaluated policy: each method compared over seeds,
+    then each baseline."""
     from dyncatch.policies.registry import BASELINES
 
-    return [(m, s) for m in METHODS for s in range(plan.seeds)] + [(b, None) for b in BASELINES]
+    methods = [(m, s) for m in plan.method_names for s in range(plan.seeds)]
+    return methods + [(b, None) for b in BASELINES]
 
 
 def load_policy(plan: Plan, out: Path, behavior: str, name: str, seed: int | None):
@@ -227,8 +231,8 @@ def evaluate_grid(plan: Plan, out: Path, table: str, behaviors, speeds, executor
     return rows
 
 
-def filmed_methods() -> tuple[str, ...]:
-    return tuple(name for name, m in METHODS.items() if m.filmed)
+def filmed_methods(plan: Plan) -> tuple[str, ...]:
+    return tuple(name for name in plan.method_names if METHODS[name].filmed)
 
 
 def _video_job(plan: Plan, out: Path, method: str, behavior: str, progress=None) -> None:
@@ -270,7 +274,7 @@ def _video_job(plan: Plan, out: Path, method: str, behavior: str, progress=None)
 
 
 def record_videos(plan: Plan, out: Path, executor) -> list[dict]:
-    clips = [(m, b) for m in filmed_methods() for b in plan.fig6_columns]
+    clips = [(m, b) for m in filmed_methods(plan) for b in plan.fig6_columns]
     path = lambda m, b: out / "videos" / f"{m}_{b}.json"  # noqa: E731
     executor.run(
         [

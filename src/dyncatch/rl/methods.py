@@ -6,11 +6,19 @@ the observation: nothing (``rl``), a learned predictor's v_hat_{t+1} (``p_rl`` v
 ``sp_fp`` is not trained: it is the ``gt_rl`` policy run with the self-aware predictor's
 output in place of the ground truth. Velocities enter in the base frame, with a flag that
 says whether the input is defined (a predictor needs two consecutive sightings).
+
+Beyond the paper, ``st_rl`` reads the self-aware tracker (``docs/tracker.md``): its current
+position and velocity estimate and their uncertainty (``TRACK_INPUTS``); ``st_fp`` is the
+``gt_rl`` policy run with the tracker's velocity. The tracker carries a memory per
+environment: ``MethodObs.init_carry`` / ``MethodObs.step`` are the seam every rollout calls
+(the carry is ``()`` and ``step`` is ``__call__`` for every other method).
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import Any, Literal
 
 import jax
 import jax.numpy as jnp
@@ -18,6 +26,7 @@ from flax import struct
 
 from dyncatch.predictor.features import history_from_state
 from dyncatch.predictor.model import Predictor
+from dyncatch.predictor.tracker.model import TRACKER, Tracker
 from dyncatch.sim.geometry import world_to_body
 from dyncatch.sim.state import EnvState, Obs
 
@@ -39,6 +48,35 @@ VELOCITY_INPUTS: tuple[tuple[str, int, str], ...] = (
     ),
 )
 """(name, size, meaning) of what a method with a velocity input appends to ``Obs.flat``."""
+
+TRACK_INPUTS: tuple[tuple[str, int, str], ...] = (
+    (
+        "target_track_body_m",
+        2,
+        "the tracker's estimate of the target's current position relative to the robot, "
+        "current base frame (forward, left); 0 before the first sighting",
+    ),
+    (
+        "target_track_vel_body_mps",
+        2,
+        "the tracker's estimate of the target's current velocity, current base frame; 0 "
+        "before the first sighting",
+    ),
+    (
+        "target_track_pos_std_m",
+        1,
+        "RMS of the tracker's two position standard deviations; 0 before the first sighting",
+    ),
+    (
+        "target_track_vel_std_mps",
+        1,
+        "RMS of the tracker's two velocity standard deviations; 0 before the first sighting",
+    ),
+    ("target_track_defined", 1, "1 once the camera has seen the target this episode, else 0"),
+)
+"""(name, size, meaning) of what ``st_rl`` appends to ``Obs.flat``."""
+
+InputLayout = Literal["velocity", "track"]
 
 
 @dataclass(frozen=True)
@@ -62,6 +100,12 @@ class Method:
     """The paper's high-speed claims: this method catches more, and sooner, than these."""
     filmed: bool = False
     """The reproduction records one video per behaviour of this method's policy."""
+    input_layout: InputLayout = "velocity"
+    """What is appended to the observation: ``VELOCITY_INPUTS`` (where ``velocity_input``
+    is set) or, from the tracker, ``TRACK_INPUTS``."""
+    reproduced: bool = True
+    """Part of a reproduction unless ``dyncatch reproduce --methods`` names it (the
+    methods beyond the paper are opt-in, so the default runs stay as long as they were)."""
 
     @property
     def trained(self) -> bool:
@@ -99,11 +143,11 @@ class Method:
                 f"method {self.name!r} needs a trained {kind!r} predictor "
                 f"checkpoint (dyncatch predictor train --kind {kind})"
             )
-        if predictor.cfg.kind != kind:
+        if predictor.kind != kind:
             raise ValueError(
-                f"method {self.name!r} needs a {kind!r} predictor, got a {predictor.cfg.kind!r} one"
+                f"method {self.name!r} needs a {kind!r} predictor, got a {predictor.kind!r} one"
             )
-        return MethodObs(self.velocity_input, predictor, predictor_params)
+        return MethodObs(self.velocity_input, predictor, predictor_params, self.input_layout)
 
 
 METHODS: dict[str, Method] = {
@@ -136,6 +180,25 @@ METHODS: dict[str, Method] = {
             "RL with the ground-truth target velocity (GT-Pred)",
             GROUND_TRUTH,
         ),
+        Method(
+            "st_fp",
+            "ST+FP",
+            "C5",
+            "gt_rl policy run with the self-aware tracker's current velocity",
+            TRACKER,
+            trained_as="gt_rl",
+            reproduced=False,
+        ),
+        Method(
+            "st_rl",
+            "ST+RL",
+            "C6",
+            "self-aware tracker (position, velocity, uncertainty at 50 Hz) + RL",
+            TRACKER,
+            beats=("sp_rl",),
+            input_layout="track",
+            reproduced=False,
+        ),
     )
 }
 
@@ -146,37 +209,103 @@ def get_method(name: str) -> Method:
     return METHODS[name]
 
 
-def trained_methods() -> tuple[str, ...]:
-    """Names of the methods PPO trains, in registry order."""
-    return tuple(name for name, m in METHODS.items() if m.trained)
+def reproduced_methods() -> tuple[str, ...]:
+    """The methods a reproduction compares by default (``Method.reproduced``), in registry
+    order."""
+    return tuple(name for name, m in METHODS.items() if m.reproduced)
 
 
-def predictor_kinds() -> tuple[str, ...]:
-    """The frozen predictor kinds some method reads, in registry order."""
-    kinds = (m.predictor_kind for m in METHODS.values())
+def selected(names: Iterable[str] | None = None) -> dict[str, Method]:
+    """The registry's entries named in ``names`` (default ``reproduced_methods()``), in
+    registry order."""
+    chosen = set(reproduced_methods() if names is None else names)
+    return {name: m for name, m in METHODS.items() if name in chosen}
+
+
+def trained_methods(names: Iterable[str] | None = None) -> tuple[str, ...]:
+    """Names of the methods PPO trains among ``names`` (default: a default reproduction's),
+    in registry order."""
+    return tuple(name for name, m in selected(names).items() if m.trained)
+
+
+def predictor_kinds(names: Iterable[str] | None = None) -> tuple[str, ...]:
+    """The frozen predictor kinds the methods ``names`` read (default: a default
+    reproduction's), in registry order."""
+    kinds = (m.predictor_kind for m in selected(names).values())
     return tuple(dict.fromkeys(k for k in kinds if k is not None))
 
 
-def paper_claims() -> tuple[tuple[str, str], ...]:
-    """The paper's high-speed ordering as (winner, loser) pairs."""
-    return tuple((name, other) for name, m in METHODS.items() for other in m.beats)
+def paper_claims(names: Iterable[str] | None = None) -> tuple[tuple[str, str], ...]:
+    """The high-speed ordering claims as (winner, loser) pairs among ``names`` (default: a
+    default reproduction's methods): the paper's, and ``st_rl > sp_rl`` of the tracker."""
+    chosen = selected(names)
+    return tuple(
+        (name, other) for name, m in chosen.items() for other in m.beats if other in chosen
+    )
+
+
+def check_selection(names: Iterable[str]) -> None:
+    """Raise ValueError naming an unknown method, or one whose policy source is missing."""
+    names = tuple(names)
+    for name in names:
+        m = get_method(name)
+        if m.policy_source not in names:
+            raise ValueError(
+                f"method {name!r} is evaluated with {m.policy_source!r}'s policy: "
+                f"add {m.policy_source} to --methods"
+            )
 
 
 @struct.dataclass
 class MethodObs:
-    """``(state, obs) -> (D,)`` for one environment: the observation plus the velocity input.
+    """``(state, obs) -> (D,)`` for one environment: the observation plus the method's input.
 
     A pytree: ``predictor_params`` are its leaves, the rest is static, so policies built on
     it can be jit arguments (one compilation per method, not per checkpoint). In training it
     is closed over, so the frozen predictor's weights are constants of the compiled update.
+
+    Rollouts call it through ``init_carry(state)`` at each episode start and
+    ``step(carry, state, obs) -> (carry, x)`` at every control step: a tracker method
+    carries its ``Memory``, every other method the empty carry ``()``.
     """
 
     velocity_input: str | None = struct.field(pytree_node=False)
-    predictor: Predictor | None = struct.field(pytree_node=False, default=None)
+    predictor: Predictor | Tracker | None = struct.field(pytree_node=False, default=None)
     predictor_params: object = None
+    input_layout: InputLayout = struct.field(pytree_node=False, default="velocity")
+
+    @property
+    def stateful(self) -> bool:
+        """Whether the input depends on a carry (the tracker's memory)."""
+        return self.predictor is not None and self.predictor.stateful
+
+    def init_carry(self, state: EnvState) -> Any:
+        """The carry at an episode start, ``()`` for a stateless input."""
+        del state
+        return self.predictor.init_carry() if self.stateful else ()
+
+    def step(self, carry: Any, state: EnvState, obs: Obs) -> tuple[Any, jax.Array]:
+        """(carry after ``state``, the policy's input vector (D,)); call once per step."""
+        if not self.stateful:
+            return carry, self(state, obs)
+        carry = self.predictor.ingest(carry, state)
+        est = self.predictor.estimate(self.predictor_params, carry, state)
+        if self.input_layout == "track":
+            extra = [
+                est.pos_body_m,
+                est.vel_body_mps,
+                est.pos_std_m[None],
+                est.vel_std_mps[None],
+                est.defined[None],
+            ]
+        else:
+            extra = [est.vel_body_mps, est.defined[None]]
+        return carry, jnp.concatenate([obs.flat, *extra])
 
     def velocity(self, state: EnvState) -> tuple[jax.Array, jax.Array]:
-        """(world velocity (2,), defined flag ())."""
+        """(world velocity (2,), defined flag ()) of a stateless input."""
+        if self.stateful:
+            raise ValueError("a tracker's velocity needs its carry: use MethodObs.step")
         if self.velocity_input == GROUND_TRUTH:
             return state.target.vel_mps, jnp.ones(())
         history = history_from_state(state)
@@ -186,11 +315,15 @@ class MethodObs:
 
     def layout(self) -> tuple[tuple[str, int], ...]:
         """(name, size) of each part of the input vector, in order (sizes sum to D)."""
-        extra = () if self.velocity_input is None else VELOCITY_INPUTS
+        if self.velocity_input is None:
+            extra = ()
+        else:
+            extra = TRACK_INPUTS if self.input_layout == "track" else VELOCITY_INPUTS
         return Obs.layout() + tuple((name, size) for name, size, _ in extra)
 
     def __call__(self, state: EnvState, obs: Obs) -> jax.Array:
-        """The policy's input vector, (D,): ``obs.flat`` then the ``VELOCITY_INPUTS``."""
+        """The policy's input vector, (D,), of a stateless input: ``obs.flat`` then the
+        ``VELOCITY_INPUTS``."""
         if self.velocity_input is None:
             return obs.flat
         v_world, ok = self.velocity(state)

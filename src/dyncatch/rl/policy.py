@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import jax
 from flax import struct
@@ -30,7 +31,8 @@ from dyncatch.utils.tree_io import TreeFileError, load_fields, read_header
 
 @struct.dataclass
 class LearnedPolicy:
-    """Recurrent-protocol policy (no carry) around a trained actor.
+    """Recurrent-protocol policy around a trained actor; its carry is the input function's
+    (``MethodObs.init_carry``: the tracker's memory, ``()`` for every other method).
 
     A pytree (weights, normaliser, predictor weights and the training environment are
     leaves; the network and the method's input kind are static), so evaluation passes it to
@@ -45,12 +47,13 @@ class LearnedPolicy:
     env: Environment
     is_pytree_policy: bool = struct.field(pytree_node=False, default=True)
 
-    def init_carry(self, state: EnvState, obs: Obs) -> tuple:
-        return ()
+    def init_carry(self, state: EnvState, obs: Obs) -> Any:
+        return self.obs_fn.init_carry(state)
 
-    def step(self, carry: tuple, state: EnvState, obs: Obs, key: jax.Array):
+    def step(self, carry: Any, state: EnvState, obs: Obs, key: jax.Array):
         del key  # the mean action: evaluation is deterministic given the world's noise
-        mean, _, _ = self.net.apply(self.params, self.norm(self.obs_fn(state, obs)))
+        carry, x = self.obs_fn.step(carry, state, obs)
+        mean, _, _ = self.net.apply(self.params, self.norm(x))
         return carry, to_command(mean, self.env)
 
 
@@ -108,9 +111,9 @@ def load_run(
             raise ValueError(
                 f"method {method!r} needs --predictor PATH (a {m.predictor_kind!r} one)"
             )
-        from dyncatch.predictor.checkpoint import load as load_predictor
+        from dyncatch.predictor.checkpoint import load_any
 
-        pred, pred_params = load_predictor(pred_path)
+        pred, pred_params = load_any(pred_path)
     obs_fn = m.obs_fn(pred, pred_params, evaluation=True)
     # The template is the train state of the method it was trained as (same input size).
     train_fn = get_method(trained).obs_fn(pred, pred_params) if method != trained else obs_fn

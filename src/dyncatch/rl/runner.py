@@ -54,7 +54,8 @@ class TrainRunCfg:
     out: Path = Path("runs/train")
     """Run folder: checkpoint.safetensors and the loggers' files (metrics.csv, tb/, wandb/)."""
     predictor: Path | None = None
-    """Predictor checkpoint (from dyncatch predictor train) for p_rl and sp_rl."""
+    """Predictor checkpoint (from dyncatch predictor train) for p_rl and sp_rl, or the
+    tracker's (dyncatch predictor train --kind tracker) for st_rl."""
     checkpoint_every: int = 20
     """Iterations between checkpoints (one is always written at the end)."""
     resume: bool = False
@@ -162,9 +163,9 @@ class TrainRunner:
         self.env = (env if env is not None else JaxCatchEnv()).with_world(world)
         predictor = params = None
         if get_method(cfg.method).predictor_kind is not None:
-            from dyncatch.predictor.checkpoint import load as load_predictor
+            from dyncatch.predictor.checkpoint import load_any
 
-            predictor, params = load_predictor(cfg.predictor)
+            predictor, params = load_any(cfg.predictor)
         self.obs_fn = get_method(cfg.method).obs_fn(predictor, params)
         self.mesh = mesh if mesh is not None else batch_mesh()
         validate_mesh(self.ppo, self.mesh.size)

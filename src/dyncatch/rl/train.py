@@ -4,7 +4,10 @@ One iteration = a ``lax.scan`` rollout of ``num_steps`` over ``num_envs`` auto-r
 environments, GAE with time-out bootstrapping, then ``update_epochs`` x ``num_minibatches``
 Adam steps with an adaptive-KL learning rate, all inside a single compiled function. The
 state is a pytree, so a run can be ``vmap``-ed over seeds. ``env`` is any backend of the
-environment protocol (``dyncatch.sim.api``); a ``WorldCfg`` means the JAX world.
+environment protocol (``dyncatch.sim.api``); a ``WorldCfg`` means the JAX world. The
+policy's input function may carry a state per environment (the tracker's memory,
+``rl.methods.MethodObs.init_carry`` / ``step``): it rides in ``TrainState.obs_carry`` and is
+started afresh where the batched auto-reset starts a new episode.
 
 Given a ``jax.sharding.Mesh`` with a ``"batch"`` axis, the environment batch and the PPO
 minibatches are constrained to be split along it (data parallel: each device steps its
@@ -15,7 +18,7 @@ same code runs on one device or many; only float reduction order differs between
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -31,7 +34,7 @@ from dyncatch.rl.normalize import RunningNorm
 from dyncatch.sim.api import Environment, as_env
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.state import EnvState, Obs
-from dyncatch.sim.vec import batch_observe, batch_reset, batch_step
+from dyncatch.sim.vec import batch_observe, batch_reset, batch_step, batch_step_with_final
 
 ObsFn = Callable[[EnvState, Obs], jax.Array]
 """(state, obs) of one environment -> the policy's input vector (D,)."""
@@ -41,6 +44,27 @@ def flat_obs(state: EnvState, obs: Obs) -> jax.Array:
     """The monolithic policy's input: the observation as it is."""
     del state
     return obs.flat
+
+
+class Stateless:
+    """A plain ``ObsFn`` seen through the carry seam of ``rl.methods.MethodObs``: the carry
+    is ``()`` and ``step`` is the function."""
+
+    stateful = False
+
+    def __init__(self, fn: ObsFn):
+        self.fn = fn
+
+    def init_carry(self, state: EnvState) -> tuple:
+        return ()
+
+    def step(self, carry: tuple, state: EnvState, obs: Obs) -> tuple[tuple, jax.Array]:
+        return carry, self.fn(state, obs)
+
+
+def as_stepper(obs_fn):
+    """``obs_fn`` itself if it has the carry seam (``init_carry``, ``step``), else wrapped."""
+    return obs_fn if hasattr(obs_fn, "init_carry") else Stateless(obs_fn)
 
 
 @struct.dataclass
@@ -54,6 +78,9 @@ class TrainState:
     learning_rate: jax.Array
     iteration: jax.Array
     env_steps: jax.Array
+    obs_carry: Any = ()
+    """The input function's carry per environment, [B, ...] (``()``, no leaves, for every
+    method but the tracker's: their checkpoints hold exactly what they held before)."""
 
 
 class Transition(NamedTuple):
@@ -106,7 +133,9 @@ def make_train(
     env = as_env(env)
     constrain = batch_constraint(mesh)
     net = ActorCritic(env.action_spec.shape[0], ppo.hidden_sizes, ppo.init_log_std)
-    vobs = jax.vmap(obs_fn)
+    stepper = as_stepper(obs_fn)
+    vstep = jax.vmap(stepper.step)
+    vinit = jax.vmap(stepper.init_carry)
     optimizer = optax.chain(
         optax.clip_by_global_norm(ppo.max_grad_norm),
         optax.inject_hyperparams(optax.adam)(learning_rate=ppo.learning_rate),
@@ -116,7 +145,8 @@ def make_train(
         k_net, k_env, k_next = jax.random.split(key, 3)
         env_state = batch_reset(k_env, env, ppo.num_envs)
         obs = batch_observe(env_state, env)
-        x = vobs(env_state, obs)
+        obs_carry = vinit(env_state)
+        _, x = vstep(obs_carry, env_state, obs)
         params = net.init(k_net, x[:1])
         return TrainState(
             params=params,
@@ -128,18 +158,41 @@ def make_train(
             learning_rate=jnp.asarray(ppo.learning_rate, jnp.float32),
             iteration=jnp.zeros((), jnp.int32),
             env_steps=jnp.zeros((), jnp.int32),
+            obs_carry=obs_carry,
         )
+
+    def env_step(env_state, action, obs_carry):
+        """The batched auto-reset step, and the input at each finished episode's end and
+        the carry of the next step (a fresh one where an episode started)."""
+        if not stepper.stateful:
+            next_state, next_obs, reward, done, info = batch_step(env_state, action, env)
+            # As before the carry existed, bit for bit: the input is taken with the state
+            # after the reset (a frame predictor reads the new episode's sensor there).
+            _, final_x = vstep(obs_carry, next_state, info["final_obs"])
+            return next_state, next_obs, reward, done, info, final_x, obs_carry
+        next_state, next_obs, reward, done, info, final_state = batch_step_with_final(
+            env_state, action, env
+        )
+        ended_carry, final_x = vstep(obs_carry, final_state, info["final_obs"])
+        del ended_carry  # the input at the end needs the carry; the next step starts afresh
+        fresh = vinit(next_state)
+        obs_carry = jax.tree.map(
+            lambda a, b: jnp.where(done.reshape(-1, *[1] * (a.ndim - 1)), a, b),
+            fresh,
+            obs_carry,
+        )
+        return next_state, next_obs, reward, done, info, final_x, obs_carry
 
     def rollout(ts: TrainState):
         def step(carry, key):
-            env_state, obs = jax.tree.map(lambda x: constrain(x, 0), carry)
-            x = vobs(env_state, obs)
+            env_state, obs, obs_carry = jax.tree.map(lambda x: constrain(x, 0), carry)
+            obs_carry, x = vstep(obs_carry, env_state, obs)
             x_norm = ts.norm(x)
             mean, log_std, value = net.apply(ts.params, x_norm)
             action = mean + jnp.exp(log_std) * jax.random.normal(key, mean.shape)
             log_prob = gaussian_log_prob(action, mean, log_std)
-            next_state, next_obs, reward, done, info = batch_step(
-                env_state, to_command(action, env), env
+            next_state, next_obs, reward, done, info, final_x, obs_carry = env_step(
+                env_state, to_command(action, env), obs_carry
             )
             tr = Transition(
                 obs=x,
@@ -152,17 +205,19 @@ def make_train(
                 dones=done,
                 truncated=info["truncated"],
                 # The input the policy would have seen at the end of a finished episode.
-                final_obs=vobs(next_state, info["final_obs"]),
+                final_obs=final_x,
                 success=info["success"],
                 episode_steps=env_state.step + 1,
             )
-            return (next_state, next_obs), tr
+            return (next_state, next_obs, obs_carry), tr
 
         key, k_roll = jax.random.split(ts.key)
-        (env_state, obs), traj = jax.lax.scan(
-            step, (ts.env_state, ts.obs), jax.random.split(k_roll, ppo.num_steps)
+        (env_state, obs, obs_carry), traj = jax.lax.scan(
+            step,
+            (ts.env_state, ts.obs, ts.obs_carry),
+            jax.random.split(k_roll, ppo.num_steps),
         )
-        return ts.replace(env_state=env_state, obs=obs, key=key), traj
+        return ts.replace(env_state=env_state, obs=obs, obs_carry=obs_carry, key=key), traj
 
     def update(ts: TrainState, batch: dict[str, jax.Array]):
         def minibatch_step(carry, mb):
@@ -215,7 +270,8 @@ def make_train(
         ts, traj = rollout(ts)
         flat = lambda x: x.reshape(ppo.batch_size, *x.shape[2:])  # noqa: E731
         _, _, final_values = net.apply(ts.params, ts.norm(traj.final_obs))
-        _, _, last_value = net.apply(ts.params, ts.norm(vobs(ts.env_state, ts.obs)))
+        _, last_x = vstep(ts.obs_carry, ts.env_state, ts.obs)
+        _, _, last_value = net.apply(ts.params, ts.norm(last_x))
         rewards = bootstrap_timeouts(traj.rewards, traj.truncated, final_values, ppo.gamma)
         adv, returns = gae(rewards, traj.values, traj.dones, last_value, ppo.gamma, ppo.gae_lambda)
         # The rollout's own outputs are the "old" policy of the KL and ratio terms.

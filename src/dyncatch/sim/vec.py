@@ -20,12 +20,9 @@ def _select(pred: jax.Array, on_true, on_false):
     return jax.tree.map(lambda a, b: jnp.where(pred, a, b), on_true, on_false)
 
 
-def auto_reset_step(state, action: jax.Array, env: Environment):
-    """``env.step``, then start a new episode where this one ended.
-
-    The returned observation is the new episode's first one where ``done``; the last
-    observation of the finished episode is ``info["final_obs"]`` (for time-out bootstrapping).
-    """
+def auto_reset_step_with_final(state, action, env: Environment):
+    """``auto_reset_step`` that also returns the finished episode's last state (the state
+    after the step, before any reset), for inputs with a carry (``rl.methods.MethodObs``)."""
     next_state, obs, reward, done, info = env.step(state, action)
     fresh = env.reset(jax.random.fold_in(next_state.key, _RESET_STREAM))
     info["final_obs"] = obs
@@ -35,7 +32,17 @@ def auto_reset_step(state, action: jax.Array, env: Environment):
         reward,
         done,
         info,
+        next_state,
     )
+
+
+def auto_reset_step(state, action, env: Environment):
+    """``env.step``, then start a new episode where this one ended.
+
+    The returned observation is the new episode's first one where ``done``; the last
+    observation of the finished episode is ``info["final_obs"]`` (for time-out bootstrapping).
+    """
+    return auto_reset_step_with_final(state, action, env)[:5]
 
 
 def batch_reset(key: jax.Array, env: Environment, num_envs: int):
@@ -45,6 +52,9 @@ def batch_reset(key: jax.Array, env: Environment, num_envs: int):
 
 batch_step = jax.vmap(auto_reset_step, in_axes=(0, 0, None))
 """(state [B], action [B, 3], env) -> (state [B], obs [B], reward [B], done [B], info [B])."""
+
+batch_step_with_final = jax.vmap(auto_reset_step_with_final, in_axes=(0, 0, None))
+"""``batch_step`` plus the pre-reset states [B] (``auto_reset_step_with_final``)."""
 
 
 def batch_observe(state, env: Environment):
