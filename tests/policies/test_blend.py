@@ -12,6 +12,7 @@ import pytest
 from flax import struct
 
 from dyncatch.evaluation.episodes import run_episodes
+from dyncatch.policies.api import as_recurrent
 from dyncatch.policies.blend import (
     BlendCfg,
     CollidCfg,
@@ -48,98 +49,108 @@ class TestWeights:
 
 
 class TestCorridor:
+    rays = 2.0 * np.pi * np.arange(8) / 8
+
     def test_a_point_ahead(self):
         # One point 2 m ahead; 8 rays. A disc of 0.5 m meets it after 1.5 m going ahead;
         # at 45 deg the point is 1.41 m across, wider than the disc: free; behind: free.
         scan = jnp.array([2.0] + [10.0] * 7)
-        free = np.asarray(corridor_free_m(scan, 10.0, 0.5))
+        free = np.asarray(corridor_free_m(scan, 10.0, 0.5, self.rays))
         assert free[0] == pytest.approx(1.5)
         assert np.all(np.isinf(free[1:]))
         # A 1.5 m disc is met at 45 deg too: a - sqrt(r^2 - b^2) = 1.414 - sqrt(2.25 - 2).
-        free = np.asarray(corridor_free_m(scan, 10.0, 1.5))
+        free = np.asarray(corridor_free_m(scan, 10.0, 1.5, self.rays))
         assert free[1] == pytest.approx(math.sqrt(2.0) - 0.5, abs=1e-5)
         assert free[7] == pytest.approx(math.sqrt(2.0) - 0.5, abs=1e-5)
+        # Between rays: at 30 deg, a = 2 cos 30 = 1.732, b = 1, met after 1.732 - sqrt(1.25).
+        free = corridor_free_m(scan, 10.0, 1.5, jnp.radians(jnp.array([30.0])))
+        assert float(free[0]) == pytest.approx(math.sqrt(3.0) - math.sqrt(1.25), abs=1e-5)
 
     def test_nothing_hit_is_free(self):
-        assert np.all(np.isinf(corridor_free_m(jnp.full(16, 10.0), 10.0, 0.5)))
+        assert np.all(np.isinf(corridor_free_m(jnp.full(8, 10.0), 10.0, 0.5, self.rays)))
 
 
 class TestCollid:
     world = WorldCfg()
 
-    def test_goes_for_the_goal_when_it_is_clear(self):
-        scan = jnp.full(8, 10.0)
-        a = collid_action(scan, jnp.array([0.0, 3.0]), self.world, CollidCfg())
-        # Goal 90 deg left: 1 m/s sideways, turning at the yaw limit (4 x pi/2 > 2 rad/s).
-        np.testing.assert_allclose(a, [0.0, 1.0, 2.0], atol=1e-6)
+    def test_a_clear_way_is_the_catch_command(self):
+        scan = jnp.array([1.0] + [10.0] * 7)  # an obstacle ahead, the catch goes left
+        catch = jnp.array([0.3, 0.9, -1.5])
+        np.testing.assert_allclose(collid_action(scan, catch, self.world, CollidCfg()), catch)
 
-    def test_steps_around_a_blocked_goal(self):
-        # An obstacle 1 m ahead, the goal beyond it. Corridor 0.36 + 0.15 = 0.51 m: ahead
-        # is met after 0.49 m (< 1.5 m lookahead); 45 deg left passes 0.71 m from the point:
-        # the nearest open direction (left before right).
+    def test_steps_around_a_blocked_way(self):
+        # An obstacle 1 m ahead, the catch runs at it at 2 m/s. Corridor 0.36 + 0.15 =
+        # 0.51 m: ahead is met after 0.49 m (< 1.5 m lookahead); 45 deg left passes 0.71 m
+        # from the point: the nearest open direction (left before right). At 2 m/s that is
+        # (1.41, 1.41), the lateral part clipped to the 1 m/s limit; the yaw rate is kept.
         scan = jnp.array([1.0] + [10.0] * 7)
-        a = collid_action(scan, jnp.array([4.0, 0.0]), self.world, CollidCfg())
-        h = math.sqrt(0.5)
-        np.testing.assert_allclose(a, [h, h, 0.0], atol=1e-6)
+        catch = jnp.array([2.0, 0.0, 0.5])
+        a = collid_action(scan, catch, self.world, CollidCfg())
+        np.testing.assert_allclose(a, [math.sqrt(2.0), 1.0, 0.5], atol=1e-6)
 
     def test_boxed_in_it_takes_the_longest_corridor(self):
         scan = jnp.array([1.0, 1.2, 1.4, 1.6, 1.8, 1.6, 1.4, 1.2])
-        a = collid_action(scan, jnp.array([1.0, 0.0]), self.world, CollidCfg())
+        a = collid_action(scan, jnp.array([1.0, 0.0, 0.0]), self.world, CollidCfg())
         np.testing.assert_allclose(a[:2], [-1.0, 0.0], atol=1e-6)  # straight back
+
+
+@struct.dataclass
+class Forward:
+    """A catch policy that always commands ``speed`` straight ahead (a jit pytree)."""
+
+    speed: jax.Array
+    is_pytree_policy: bool = struct.field(pytree_node=False, default=True)
+
+    def init_carry(self, state, obs):
+        return ()
+
+    def step(self, carry, state, obs, key):
+        return carry, jnp.stack([self.speed, 0.0, 0.0])
 
 
 def _room(xy, yaw=0.0, target=(8.0, 8.0)):
     world = WorldCfg().for_scene("room_0")
-    state = env.reset(jax.random.key(0), world)
+    state = jax.jit(env.reset, static_argnums=1)(jax.random.key(0), world)
     return world, place(state, robot_xy=xy, robot_yaw=yaw, target_xy=target)
 
 
+def _actions(catch, world, state):
+    """(blended action, pi_catch's, pi_collid's) in ``state``."""
+    obs = env.observe(state, world)
+    key = jax.random.key(1)
+    _, got = blended(catch, world).step((), state, obs, key)
+    _, a_catch = as_recurrent(catch).step((), state, obs, key)
+    a_collid = collid_action(collid_scan_m(state, world, CollidCfg()), a_catch, world, CollidCfg())
+    return got, a_catch, a_collid
+
+
 class TestWrapper:
-    def _actions(self, world, state):
-        catch = pursuit_policy(world)
-        obs = env.observe(state, world)
-        policy = blended(catch, world)
-        _, got = policy.step((), state, obs, jax.random.key(1))
-        a_catch = catch(obs, jax.random.key(1))
-        scan = collid_scan_m(state, world, CollidCfg())
-        a_collid = collid_action(scan, obs.target_obs_body_m, world, CollidCfg())
-        return got, a_catch, a_collid
+    r = WorldCfg().base.radius_m
 
     def test_pure_catch_far_from_walls(self):
         world, state = _room((8.0, 6.0))
-        got, a_catch, _ = self._actions(world, state)
+        catch = pursuit_policy(world)
+        got, a_catch, _ = _actions(catch, world, state)
         np.testing.assert_array_equal(got, a_catch)
 
     def test_mostly_collid_at_contact(self):
-        r = WorldCfg().base.radius_m
-        world, state = _room((r, 8.0), yaw=math.pi)  # touching the left wall, facing it
+        # Touching the left wall, facing it, the catch runs into it: pi_collid turns aside.
+        world, state = _room((self.r, 8.0), yaw=math.pi)
         assert float(robot_clearance_m(state, world)) == pytest.approx(0.0, abs=1e-5)
-        got, a_catch, a_collid = self._actions(world, state)
+        got, a_catch, a_collid = _actions(Forward(jnp.float32(2.0)), world, state)
+        assert float(a_collid[0]) < 0.5  # no longer into the wall
         np.testing.assert_allclose(got, 0.1 * a_catch + 0.9 * a_collid, atol=1e-5)
 
     def test_hand_worked_in_between(self):
-        r = WorldCfg().base.radius_m
-        world, state = _room((r + 0.55, 8.0))  # 0.55 m from the wall: w_c = 0.45
-        got, a_catch, a_collid = self._actions(world, state)
+        # 0.55 m from the wall, facing it: w_c = 0.9 * (1 - 0.55) / 0.9 = 0.45.
+        world, state = _room((self.r + 0.55, 8.0), yaw=math.pi)
+        got, a_catch, a_collid = _actions(Forward(jnp.float32(2.0)), world, state)
+        assert float(a_collid[0]) < 0.5
         np.testing.assert_allclose(got, 0.55 * a_catch + 0.45 * a_collid, atol=1e-5)
 
     def test_a_pytree_policy_stays_a_jit_argument(self):
-        @struct.dataclass
-        class Forward:
-            speed: jax.Array
-            is_pytree_policy: bool = struct.field(pytree_node=False, default=True)
-
-            def init_carry(self, state, obs):
-                return ()
-
-            def step(self, carry, state, obs, key):
-                return carry, jnp.stack([self.speed, 0.0, 0.0])
-
-        world = (
-            WorldCfg()
-            .for_scene("room_4")
-            .replace(episode=WorldCfg().episode.replace(duration_s=0.5))
-        )
+        world = WorldCfg().for_scene("room_4")
+        world = world.replace(episode=world.episode.replace(duration_s=0.5))
         policy = blended(Forward(jnp.float32(2.0)), world)
         assert policy.is_pytree_policy
         out = run_episodes(policy, jax.random.key(0), world, 4, contact_tol_m=1e-3)

@@ -5,12 +5,14 @@ collision avoidance, by weights ``w_p, w_c = g(d_rob,obst)`` of the robot's dist
 nearest obstacle, in rooms and woods only, never in RL training. Ours:
 
 - ``pi_collid`` is a classical controller, **free-corridor steering** (a vector-field-
-  histogram-style rule): of the directions of its own range scan, it picks the one nearest
-  the bearing of the held sighting (the catch goal, part of s_t) along which the robot's
-  footprint, grown by a margin, can travel ``lookahead_m`` without touching any scan point;
-  if none can, the one it can travel farthest (ties: left first). It drives that way at
-  ``speed_mps`` and turns toward the sighting (the camera keeps the target). Since it is
-  goal-directed, a high ``w_c`` beside an obstacle that is not in the way costs little.
+  histogram-style steer-away rule) on a range scan of its own: of the direction pi_catch
+  commands and the scan's ray directions, it takes the one nearest the commanded one along
+  which the robot's footprint, grown by a margin, can travel ``lookahead_m`` without
+  touching any scan point (if none can, the one it can travel farthest; ties: left first),
+  at pi_catch's speed and yaw rate. Where the catch's way is clear, pi_collid is pi_catch,
+  so the blend changes nothing; where it is blocked, it is turned aside. (The paper's
+  pi_collid(s_t) is a navigation model that has a goal of its own; ours takes the catch
+  command as its goal.)
 - ``g`` is a linear ramp: ``w_c = w_c_max * clip((d_on - d) / (d_on - d_full), 0, 1)``,
   ``w_p = 1 - w_c``; d is ``sim.scan.robot_clearance_m`` (footprint to the nearest wall or
   obstacle, from the simulator, as the paper's d_rob,obst).
@@ -29,7 +31,7 @@ from flax import struct
 from dyncatch.policies.api import as_recurrent
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.fields import static
-from dyncatch.sim.geometry import wrap_angle
+from dyncatch.sim.geometry import unit, wrap_angle
 from dyncatch.sim.scan import range_scan, robot_clearance_m
 from dyncatch.sim.state import EnvState, Obs
 
@@ -46,16 +48,12 @@ class CollidCfg:
     s_env (``Scene.scan_rays``), read whatever scan the catch policy was trained with."""
     margin_m: float = 0.15
     """Ours: the corridor is the footprint circle (0.36 m) grown by this, so a direction
-    that grazes an obstacle is not free (gait noise 0.05 m/s per step, three sigma in 1 s)."""
+    that grazes an obstacle is not free (gait noise 0.05 m/s per step, three sigma in 1 s);
+    0.3 m gave fewer contacts and fewer catches (docs/scenes.md)."""
     lookahead_m: float = 1.5
     """Ours: a direction is free when the corridor is clear this far along it (0.75 s at
-    the 2 m/s top speed, beyond the blend's 1 m onset so that pi_collid turns before g
-    hands it the robot)."""
-    speed_mps: float = 1.0
-    """Ours: its travel speed, the base's lateral limit (1 m/s), so a sidestep is as fast
-    as a forward step."""
-    yaw_gain_per_s: float = 4.0
-    """Ours: yaw-rate command per radian of bearing to the sighting (``PursuitCfg``'s)."""
+    the 2 m/s top speed, beyond the blend's 1 m onset, so pi_collid turns before g hands it
+    the robot)."""
 
 
 @struct.dataclass
@@ -80,20 +78,19 @@ def blend_weights(d_m: jax.Array, cfg: BlendCfg) -> tuple[jax.Array, jax.Array]:
     return 1.0 - w_c, w_c
 
 
-def corridor_free_m(scan_m: jax.Array, cap_m, radius_m) -> jax.Array:
-    """How far a disc of ``radius_m`` at the scan's origin can move along each ray direction
-    before it touches a scan point, (N,), +inf where nothing is in the way.
+def corridor_free_m(scan_m: jax.Array, cap_m, radius_m, dirs_rad: jax.Array) -> jax.Array:
+    """How far a disc of ``radius_m`` at the scan's origin can move along each body-frame
+    direction ``dirs_rad`` (D,) before it touches a scan point, (D,), +inf where nothing is
+    in the way.
 
     ``scan_m`` (N,) are ranges along body angles 2 pi i / N (ray 0 ahead); a ray at
     ``cap_m`` hit nothing and gives no point. A point at along-track a > 0 and cross-track
     b < radius is met after a - sqrt(radius^2 - b^2); points behind never block.
     """
     n = scan_m.shape[-1]
-    ang = 2.0 * jnp.pi * jnp.arange(n) / n
-    u = jnp.stack([jnp.cos(ang), jnp.sin(ang)], axis=-1)  # (N, 2)
-    pts = scan_m[:, None] * u  # (N, 2) hit points
+    pts = scan_m[:, None] * unit(2.0 * jnp.pi * jnp.arange(n) / n)  # (N, 2) hit points
     hit = scan_m < cap_m
-    a = u @ pts.T  # (N dirs, N points)
+    a = unit(dirs_rad) @ pts.T  # (D, N)
     b2 = jnp.sum(pts * pts, axis=-1)[None] - a * a
     blocks = hit[None] & (a > 0.0) & (b2 < radius_m**2)
     t = a - jnp.sqrt(jnp.maximum(radius_m**2 - b2, 0.0))
@@ -101,25 +98,36 @@ def corridor_free_m(scan_m: jax.Array, cap_m, radius_m) -> jax.Array:
 
 
 def collid_action(
-    scan_m: jax.Array, goal_body_m: jax.Array, world: WorldCfg, cfg: CollidCfg
+    scan_m: jax.Array,
+    catch_action: jax.Array,
+    world: WorldCfg,
+    cfg: CollidCfg,
 ) -> jax.Array:
-    """pi_collid: base command (3,) from a scan (N,) and the goal in the base frame (2,)."""
+    """pi_collid: base command (3,) from a scan (N,) and pi_catch's command (3,), the way
+    the catch wants to go.
+
+    The candidate directions are the catch command's own and the N ray directions; the
+    speed and the yaw rate are the catch command's (the lateral part clipped to the base's
+    limit)."""
     n = scan_m.shape[-1]
-    ang = 2.0 * jnp.pi * jnp.arange(n) / n
-    free = corridor_free_m(scan_m, world.scene.scan_range_m, world.base.radius_m + cfg.margin_m)
-    goal = jnp.arctan2(goal_body_m[1], goal_body_m[0])
-    turn = wrap_angle(ang - goal)
+    v = catch_action[:2]
+    want = jnp.arctan2(v[1], v[0])
+    cand = jnp.concatenate([want[None], 2.0 * jnp.pi * jnp.arange(n) / n])
+    free = corridor_free_m(
+        scan_m, world.scene.scan_range_m, world.base.radius_m + cfg.margin_m, cand
+    )
+    turn = wrap_angle(cand - want)
     # Equally near directions on both sides: left first (rounding must not decide).
     off = jnp.abs(turn) + _TIE_RAD * (turn < 0.0)
-    # Open directions by their angle to the goal; closed ones after all of them, the
+    # Open directions by their angle to the wanted one; closed ones after all of them, the
     # farthest-reaching first.
     score = jnp.where(free >= cfg.lookahead_m, off, 2.0 * jnp.pi + cfg.lookahead_m - free)
-    heading = ang[jnp.argmin(score)]
+    heading = cand[jnp.argmin(score)]
     b = world.base
-    vx = jnp.clip(cfg.speed_mps * jnp.cos(heading), -b.max_backward_mps, b.max_forward_mps)
-    vy = jnp.clip(cfg.speed_mps * jnp.sin(heading), -b.max_lateral_mps, b.max_lateral_mps)
-    yaw = jnp.clip(cfg.yaw_gain_per_s * goal, -b.max_yaw_rate_rps, b.max_yaw_rate_rps)
-    return jnp.stack([vx, vy, yaw])
+    speed = jnp.linalg.norm(v)
+    vx = jnp.clip(speed * jnp.cos(heading), -b.max_backward_mps, b.max_forward_mps)
+    vy = jnp.clip(speed * jnp.sin(heading), -b.max_lateral_mps, b.max_lateral_mps)
+    return jnp.stack([vx, vy, catch_action[2]])
 
 
 def collid_scan_m(state: EnvState, world: WorldCfg, cfg: CollidCfg) -> jax.Array:
@@ -156,7 +164,7 @@ class Blended:
     def step(self, carry, state: EnvState, obs: Obs, key: jax.Array):
         carry, a_catch = as_recurrent(self.catch).step(carry, state, obs, key)
         scan = collid_scan_m(state, self.world, self.cfg.collid)
-        a_collid = collid_action(scan, obs.target_obs_body_m, self.world, self.cfg.collid)
+        a_collid = collid_action(scan, a_catch, self.world, self.cfg.collid)
         w_p, w_c = self.weights(state)
         return carry, w_p * a_catch + w_c * a_collid
 
