@@ -155,3 +155,21 @@ class TestWrapper:
         assert policy.is_pytree_policy
         out = run_episodes(policy, jax.random.key(0), world, 4, contact_tol_m=1e-3)
         assert out["contacts"].shape == (4,)
+
+
+def test_every_blend_constant_has_a_row_in_docs_scenes_md():
+    import dataclasses
+    from pathlib import Path
+
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "scenes.md").read_text()
+    rows = [line for line in doc.splitlines() if line.startswith("|")]
+    fields = [(f.name, getattr(BlendCfg(), f.name)) for f in dataclasses.fields(BlendCfg)]
+    fields += [
+        (f"collid.{f.name}", getattr(CollidCfg(), f.name)) for f in dataclasses.fields(CollidCfg)
+    ]
+    for name, default in fields:
+        if name == "collid":
+            continue
+        mine = [r for r in rows if r.startswith(f"| `{name}` |")]
+        assert mine, f"docs/scenes.md has no row for {name}"
+        assert float(mine[0].split("|")[2]) == pytest.approx(float(default)), name
