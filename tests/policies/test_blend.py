@@ -21,6 +21,7 @@ from dyncatch.policies.blend import (
     collid_action,
     collid_scan_m,
     corridor_free_m,
+    plane_scan,
 )
 from dyncatch.policies.pursuit import pursuit_policy
 from dyncatch.sim import env
@@ -173,3 +174,24 @@ def test_every_blend_constant_has_a_row_in_docs_scenes_md():
         mine = [r for r in rows if r.startswith(f"| `{name}` |")]
         assert mine, f"docs/scenes.md has no row for {name}"
         assert float(mine[0].split("|")[2]) == pytest.approx(float(default)), name
+
+
+def test_plane_scan_shows_the_catch_policy_a_scan_at_its_cap():
+    @struct.dataclass
+    class ReadsScan:
+        is_pytree_policy: bool = struct.field(pytree_node=False, default=True)
+
+        def init_carry(self, state, obs):
+            return ()
+
+        def step(self, carry, state, obs, key):
+            return carry, obs.scan_m[:3]
+
+    world = WorldCfg().for_scene("room_0")
+    _, state = _room((1.0, 8.0))
+    obs = env.observe(state, world)
+    assert float(obs.scan_m.min()) < 2.0  # the room's wall is in the scan
+    policy = plane_scan(ReadsScan(), world)
+    assert policy.is_pytree_policy
+    _, seen = policy.step((), state, obs, jax.random.key(0))
+    np.testing.assert_array_equal(seen, [10.0, 10.0, 10.0])

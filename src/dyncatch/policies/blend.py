@@ -175,3 +175,32 @@ def blended(catch, world: WorldCfg, cfg: BlendCfg | None = None) -> Blended:
     if not pytree:
         hash(catch)  # a static jit argument must be hashable: fail here, not in jit
     return Blended(catch, world, cfg or BlendCfg(), is_pytree_policy=pytree)
+
+
+@struct.dataclass
+class PlaneScan:
+    """``catch`` shown its training plane's range scan (every ray at ``cap_m``, what the
+    open plane reads) wherever it is deployed: a policy trained on the plane never saw a
+    wall in its scan, and its observation normaliser (zero variance there) turns one into
+    an input at the clip (docs/scenes.md measures it: 0.075 success in ``room_8`` against
+    0.830 with this view). Obstacles then reach the robot through eq. 10's pi_collid only,
+    as in the paper. A pytree when ``catch`` is one, else hashable; see ``plane_scan``."""
+
+    catch: Any
+    cap_m: float
+    is_pytree_policy: bool = struct.field(pytree_node=False, default=False)
+
+    def init_carry(self, state: EnvState, obs: Obs):
+        return as_recurrent(self.catch).init_carry(state, self._view(obs))
+
+    def step(self, carry, state: EnvState, obs: Obs, key: jax.Array):
+        return as_recurrent(self.catch).step(carry, state, self._view(obs), key)
+
+    def _view(self, obs: Obs) -> Obs:
+        return obs.replace(scan_m=jnp.full_like(obs.scan_m, self.cap_m))
+
+
+def plane_scan(catch, world: WorldCfg) -> PlaneScan:
+    """``catch`` reading the open plane's scan (capped at ``world.scene.scan_range_m``)."""
+    pytree = getattr(catch, "is_pytree_policy", False)
+    return PlaneScan(catch, world.scene.scan_range_m, is_pytree_policy=pytree)

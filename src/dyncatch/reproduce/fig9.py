@@ -6,8 +6,10 @@ speed drawn per episode from the world's range (the paper gives none for Fig. 9)
 a policy with or without eq. 10's collision-avoidance blend (``policies.blend``): the
 paper's method (``sp_rl``, over the plan's seeds, trained on the plane) without and with
 it, and the scripted baselines with it. A learned policy keeps the scan width it was
-trained with (its input size); pi_collid reads a scan of its own. Every row of a cell
-plays the same episodes (same key). One GIF per scene shows the blended ``sp_rl``.
+trained with (its input size) and, trained on the plane, is shown the plane's scan (every
+ray at its cap: ``policies.blend.plane_scan``); pi_collid reads a 32-ray scan of its own.
+Every row of a cell plays the same episodes (same key). One GIF per scene shows the blended
+``sp_rl``.
 
 Layout: ``eval/fig9/{scene}/{behavior}/{row}[_seed{s}].json`` and
 ``videos/fig9_{scene}.gif``.
@@ -87,15 +89,21 @@ def cell_key(scene: str, behavior: str):
 
 def deployed(plan: Plan, out: Path, scene: str, behavior: str, row: Fig9Row, seed):
     """(policy, world) of a row in a scene: the plane-trained policy (or the baseline),
-    blended if the row says so."""
-    from dyncatch.policies.blend import blended
+    blended if the row says so. A policy trained where the scan reads nothing (no walls,
+    no obstacles) is shown that scan (``policies.blend.plane_scan``)."""
+    from dyncatch.policies.blend import blended, plane_scan
+    from dyncatch.sim.scenes import get_scene
 
-    policy, world = load_policy(plan, out, behavior, row.policy, seed)
-    world = scene_world(world, scene, behavior, plan)
+    policy, trained_world = load_policy(plan, out, behavior, row.policy, seed)
+    world = scene_world(trained_world, scene, behavior, plan)
     if not row.learned:  # a baseline is built for the world it plays in
         from dyncatch.policies.registry import BASELINES
 
         policy = BASELINES[row.policy](world)
+    else:
+        trained_in = get_scene(trained_world.scene.name)
+        if not trained_in.walls and trained_in.layout is None:
+            policy = plane_scan(policy, world)
     return (blended(policy, world) if row.blend else policy), world
 
 
