@@ -64,7 +64,8 @@ def state_row(state: EnvState) -> dict[str, jax.Array]:
         "visible": state.sensor.visible,
         "ever_seen": state.sensor.ever_seen,
         "success": state.success,
-        "obstacle_xy_m": to_world(state, state.obstacles.centre_xy_m),
+        # (..., K, 2): the origin broadcasts over the obstacles of each state.
+        "obstacle_xy_m": state.obstacles.centre_xy_m + state.origin_xy_m[..., None, :],
         "obstacle_half_m": state.obstacles.half_m,
         "obstacle_radius_m": state.obstacles.radius_m,
     }
