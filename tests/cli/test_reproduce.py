@@ -42,6 +42,8 @@ TINY = [
     "--ppo.hidden-sizes", "16",
     # Short episodes keep evaluation and the videos small; the pipeline is the same.
     "--world.episode.duration-s", "2.0",
+    # Fig. 9 is tested at a tiny size on its own (tests/reproduce/test_fig9.py).
+    "--no-fig9",
 ]  # fmt: skip
 
 

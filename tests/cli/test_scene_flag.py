@@ -81,3 +81,20 @@ def test_eval_pursuit_on_the_open_plane(capsys):
     # With no wall to corner it against, a 1.8 m/s reactive target is out of the pursuer's
     # reach: measured 0.000 here (1000 episodes: docs/model.md, Scenes), 0.43 in the arena.
     assert row["success_rate"] <= 0.02
+
+
+def test_bench_env_rows_name_their_scene(monkeypatch, capsys):
+    from dyncatch.bench import env_bench
+
+    # The row building, not the timing: the two measurements are stubbed.
+    monkeypatch.setattr(env_bench, "jax_steps_per_s", lambda cfg, n: 1000.0 * n)
+    monkeypatch.setattr(env_bench, "gym_loop_steps_per_s", lambda cfg: 10.0)
+    argv = ["bench", "env", "--json", "--scene", "room_8", "--world.scene.scan-rays", "32"]
+    assert main([*argv, "--num-envs", "4", "16"]) == 0
+    rows = json.loads(capsys.readouterr().out)["rows"]
+    assert [(r["backend"], r["num_envs"]) for r in rows] == [
+        ("jax", 4),
+        ("jax", 16),
+        ("gym_loop", 1),
+    ]
+    assert all((r["scene"], r["scan_rays"]) == ("room_8", 32) for r in rows)

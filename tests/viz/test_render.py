@@ -247,3 +247,62 @@ class TestRenderCmd:
         n_frames = len(iio.imread(path, index=None))
         assert line.startswith(f"{path}: {n_frames} frames")
         assert "caught at" in line
+
+
+class TestSceneDrawing:
+    """Obstacles, the scan, an occluded target and the blend inset, from a hand-made row."""
+
+    world = WorldCfg().for_scene("room_4")
+
+    def _row(self, occluded: bool) -> dict:
+        return {
+            "time_s": np.float64(1.0),
+            "robot_xy_m": np.array([4.0, 8.0]),
+            "robot_yaw_rad": np.float32(0.0),
+            "robot_speed_mps": np.float32(1.0),
+            "gripper_xyz_m": np.array([4.3, 8.0, 0.5]),
+            "target_xy_m": np.array([12.0, 8.0]),
+            "target_speed_mps": np.float32(1.0),
+            "obs_xy_m": np.array([12.0, 8.0]),
+            "visible": np.bool_(False),
+            "ever_seen": np.bool_(False),
+            "success": np.bool_(False),
+            # A 2 m box between the robot and the target, a cylinder below them.
+            "obstacle_xy_m": np.array([[8.0, 8.0], [8.0, 3.0]]),
+            "obstacle_half_m": np.array([[1.0, 1.0], [0.0, 0.0]]),
+            "obstacle_radius_m": np.array([0.0, 0.5]),
+            "scan_m": np.full(32, 3.0),
+            "occluded": np.bool_(occluded),
+        }
+
+    def _draw(self, occluded: bool) -> np.ndarray:
+        from dyncatch.viz.render import TopDownDrawer
+
+        drawer = TopDownDrawer(self.world, SIZE_PX, with_scan=True, with_blend=True)
+        history = (np.array([0.0, 0.5, 1.0]), np.array([0.0, 0.4, 0.9]))
+        return drawer.draw(self._row(occluded), blend_history=history)
+
+    def test_obstacles_scan_occlusion_and_blend_are_drawn(self):
+        from dyncatch.viz.render import BLEND_COLOR, OBSTACLE_COLOR, OCCLUDED_COLOR, SCAN_COLOR
+
+        frame = self._draw(occluded=True)
+
+        def near(xy, rgb, radius=2):
+            c, r = np.round(pixel_of(np.asarray(xy), self.world, SIZE_PX)).astype(int)
+            patch = frame[r - radius : r + radius + 1, c - radius : c + radius + 1]
+            target = np.array(to_rgb(rgb)) * 255
+            return np.any(np.all(np.abs(patch.astype(float) - target) < 40, axis=-1))
+
+        assert near([8.0, 8.0], OBSTACLE_COLOR)  # the box's centre
+        assert near([8.0, 3.0], OBSTACLE_COLOR)  # the cylinder's
+        assert near([12.0, 8.0], OCCLUDED_COLOR)  # the hidden target, grey
+        # A ray straight down, hitting at 3 m: a thin cyan line (SCAN_COLOR at alpha 0.6,
+        # antialiased) on the grey floor, where nothing else is cyan.
+        c, r = np.round(pixel_of(np.array([4.0, 6.5]), self.world, SIZE_PX)).astype(int)
+        patch = frame[r - 3 : r + 4, c - 3 : c + 4].astype(int)
+        assert SCAN_COLOR == "#17becf" and np.any(patch[..., 1] - patch[..., 0] > 40)
+        blend = np.array(to_rgb(BLEND_COLOR)) * 255
+        assert np.any(np.all(np.abs(frame.astype(float) - blend) < 40, axis=-1))
+        seen = self._draw(occluded=False)
+        c, r = np.round(pixel_of(np.array([12.0, 8.0]), self.world, SIZE_PX)).astype(int)
+        assert np.allclose(seen[r, c], np.array(to_rgb(TARGET_COLOR)) * 255, atol=40)

@@ -59,8 +59,14 @@ def gym_loop_steps_per_s(cfg: WorldCfg, num_steps: int = 2000) -> float:
 
 
 def run_env_benchmark(cfg: WorldCfg, num_envs: tuple[int, ...]) -> list[dict]:
+    """One row per batch size of the jitted simulator, then the Gymnasium loop's; each row
+    names the scene and its scan's ray count (``--scene room_8`` alone keeps the world's
+    rays: add ``--world.scene.scan-rays 32`` for the rooms' own)."""
+    where = {"scene": cfg.scene.name, "scan_rays": cfg.scene.scan_rays}
     rows = [
-        {"backend": "jax", "num_envs": n, "steps_per_s": jax_steps_per_s(cfg, n)} for n in num_envs
+        {"backend": "jax", "num_envs": n, **where, "steps_per_s": jax_steps_per_s(cfg, n)}
+        for n in num_envs
     ]
-    rows.append({"backend": "gym_loop", "num_envs": 1, "steps_per_s": gym_loop_steps_per_s(cfg)})
+    gym = gym_loop_steps_per_s(cfg)
+    rows.append({"backend": "gym_loop", "num_envs": 1, **where, "steps_per_s": gym})
     return rows

@@ -45,11 +45,14 @@ def run_env_bench(cmd: EnvBenchCmd) -> dict:
 
 def format_env_table(result: dict) -> str:
     gym = next(r["steps_per_s"] for r in result["rows"] if r["backend"] == "gym_loop")
-    lines = ["| backend | num_envs | env steps/s | x gym loop |", "|---|---:|---:|---:|"]
+    lines = [
+        "| backend | scene (rays) | num_envs | env steps/s | x gym loop |",
+        "|---|---|---:|---:|---:|",
+    ]
     for r in result["rows"]:
         lines.append(
-            f"| {r['backend']} | {r['num_envs']} | {r['steps_per_s']:,.0f} | "
-            f"{r['steps_per_s'] / gym:,.1f} |"
+            f"| {r['backend']} | {r['scene']} ({r['scan_rays']}) | {r['num_envs']} | "
+            f"{r['steps_per_s']:,.0f} | {r['steps_per_s'] / gym:,.1f} |"
         )
     m = result["machine"]
     lines.append(f"\nmachine: {m['cpu']}, {m['cores']} cores, jax {m['jax']} ({m['backend']})")

@@ -14,10 +14,22 @@ import jax.numpy as jnp
 from dyncatch.policies.api import as_recurrent
 from dyncatch.sim.api import Environment, as_env
 from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.scan import robot_clearance_m
+
+
+def _touching(state, env: Environment, tol_m: float) -> jax.Array:
+    """(N,) bool: each robot's footprint is within ``tol_m`` of a wall or obstacle."""
+    clearance = jax.vmap(robot_clearance_m, in_axes=(0, None))(state, env.world)
+    return clearance <= tol_m
 
 
 def _run_impl(
-    policy: Callable, key: jax.Array, env: Environment, num_episodes: int, num_steps: int
+    policy: Callable,
+    key: jax.Array,
+    env: Environment,
+    num_episodes: int,
+    num_steps: int,
+    contact_tol_m: float | None = None,
 ):
     k_reset, k_act = jax.random.split(key)
     state = jax.vmap(env.reset)(jax.random.split(k_reset, num_episodes))
@@ -26,8 +38,10 @@ def _run_impl(
     pol = as_recurrent(policy)
     vpolicy = jax.vmap(pol.step)
 
+    count = contact_tol_m is not None
+
     def body(carry, t):
-        state, obs, pcarry, done, success, steps, ret = carry
+        state, obs, pcarry, done, success, steps, ret, touching, contacts = carry
         keys = jax.random.split(jax.random.fold_in(k_act, t), num_episodes)
         pcarry, action = vpolicy(pcarry, state, obs, keys)
         state, obs, reward, now_done, info = vstep(state, action)
@@ -37,40 +51,59 @@ def _run_impl(
         steps = steps + (live & ~success).astype(jnp.int32)
         success = success | (live & info["success"])
         ret = ret + jnp.where(live, reward, 0.0)
-        return (state, obs, pcarry, done | now_done, success, steps, ret), None
+        if count:  # a contact is a step that begins a touch (not one that holds it)
+            now = _touching(state, env, contact_tol_m)
+            contacts = contacts + (live & now & ~touching).astype(jnp.int32)
+            touching = now
+        carry = (state, obs, pcarry, done | now_done, success, steps, ret, touching, contacts)
+        return carry, None
 
     zeros_b = jnp.zeros(num_episodes, bool)
     pcarry = jax.vmap(pol.init_carry)(state, obs)
     ints, floats = jnp.zeros(num_episodes, jnp.int32), jnp.zeros(num_episodes)
-    init = (state, obs, pcarry, zeros_b, zeros_b, ints, floats)
-    (_, _, _, _, success, steps, ret), _ = jax.lax.scan(body, init, jnp.arange(num_steps))
-    return success, steps, ret
+    touching = _touching(state, env, contact_tol_m) if count else zeros_b
+    init = (state, obs, pcarry, zeros_b, zeros_b, ints, floats, touching, ints)
+    final, _ = jax.lax.scan(body, init, jnp.arange(num_steps))
+    success, steps, ret, _, contacts = final[4:]
+    return success, steps, ret, contacts
 
 
-_run_static = jax.jit(_run_impl, static_argnames=("policy", "num_episodes", "num_steps"))
+_STATIC = ("num_episodes", "num_steps", "contact_tol_m")
+_run_static = jax.jit(_run_impl, static_argnames=("policy", *_STATIC))
 """Hashable policies (scripted baselines) are compile-time constants."""
-_run_pytree = jax.jit(_run_impl, static_argnames=("num_episodes", "num_steps"))
+_run_pytree = jax.jit(_run_impl, static_argnames=_STATIC)
 """Pytree policies (``is_pytree_policy``, e.g. trained networks) are arguments, so every
 checkpoint of one architecture reuses one compilation."""
 
 
-def _run(policy, key, env: Environment, num_episodes: int, num_steps: int):
+def _run(policy, key, env: Environment, num_episodes: int, num_steps: int, contact_tol_m):
     run = _run_pytree if getattr(policy, "is_pytree_policy", False) else _run_static
-    return run(policy, key, env, num_episodes, num_steps)
+    return run(policy, key, env, num_episodes, num_steps, contact_tol_m)
 
 
 def run_episodes(
-    policy: Callable, key: jax.Array, env: Environment | WorldCfg, num_episodes: int
+    policy: Callable,
+    key: jax.Array,
+    env: Environment | WorldCfg,
+    num_episodes: int,
+    contact_tol_m: float | None = None,
 ) -> dict[str, jax.Array]:
     """Play ``num_episodes`` episodes of a policy (see ``dyncatch.policies.api``) in ``env``
     (a backend of ``dyncatch.sim.api``; a ``WorldCfg`` means the JAX world).
 
     Returns ``success`` (N,) bool, ``catch_time_s`` (N,) (the episode limit on failure, as
-    in the paper) and ``return`` (N,).
+    in the paper) and ``return`` (N,). With ``contact_tol_m`` (the JAX world only) also
+    ``contacts`` (N,) int: the collisions of each episode, counted as the steps on which
+    the robot's footprint comes within ``contact_tol_m`` of a wall or obstacle
+    (``sim.scan.robot_clearance_m``) after a step on which it was not (a push-out leaves
+    it at 0: a slide along an obstacle is one contact, however long).
     """
     env = as_env(env)
     num_steps = int(env.world.episode.max_steps)
-    success, steps, ret = _run(policy, key, env, num_episodes, num_steps)
+    success, steps, ret, contacts = _run(policy, key, env, num_episodes, num_steps, contact_tol_m)
     dt = env.world.episode.dt_s
     catch_time = jnp.where(success, steps * dt, num_steps * dt)
-    return {"success": success, "catch_time_s": catch_time, "return": ret}
+    out = {"success": success, "catch_time_s": catch_time, "return": ret}
+    if contact_tol_m is not None:
+        out["contacts"] = contacts
+    return out

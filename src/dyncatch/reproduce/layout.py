@@ -8,7 +8,9 @@ Layout under ``out``::
     runs/{behavior}/{method}/seed{s}/      training runs (checkpoint, metrics.csv, tb/, done.json)
     eval/table_i/{behavior}/{policy}.json  one evaluation cell list per policy
     eval/fig6/{behavior}/{policy}.json
+    eval/fig9/{scene}/{behavior}/{row}.json  Fig. 9 cells (a row: a policy, blended or not)
     videos/{method}_{behavior}.gif         the filmed method (sp_rl)
+    videos/fig9_{scene}.gif                Fig. 9: blended sp_rl in each scene
 
 Every file is written atomically (or, for a training run, finished by ``done.json``), so
 whoever wrote it (this process or a Ray worker) and whenever it was interrupted, a file
@@ -23,7 +25,7 @@ import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
-from dyncatch.reproduce.plan import Plan
+from dyncatch.reproduce.plan import PROFILES, Plan
 from dyncatch.rl.methods import get_method
 from dyncatch.utils.config_io import config_diff
 
@@ -75,12 +77,14 @@ their seeds one by one."""
 def _real_diff(have: dict, want: dict) -> dict:
     """The differing fields, leaving out those the recorded plan lacks whose new value is
     what the code did before the field existed: its ``LEGACY_VALUES`` entry, else its
-    default (a field added later defaults to the old behaviour unless listed there). So a
-    cached study made before it still holds. A field removed since, or one set to another
-    value, counts."""
+    default in the recorded plan's profile (a field added later defaults to the old
+    behaviour unless listed there; a stage added later, such as Fig. 9, only adds files).
+    So a cached study made before it still holds. A field removed since, or one set to
+    another value, counts."""
     from dyncatch.utils.config_io import flatten
 
-    defaults = {**flatten(Plan().to_json()), **LEGACY_VALUES}
+    profile = PROFILES["quick" if have.get("quick") else "full"]
+    defaults = {**flatten(profile.to_json()), **LEGACY_VALUES}
     known = flatten(have)
     return {
         k: v

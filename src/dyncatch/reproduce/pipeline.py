@@ -14,7 +14,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from dyncatch.reproduce import aggregate, executors, layout, report, stages
+from dyncatch.reproduce import aggregate, executors, fig9, fig9_report, layout, report, stages
 from dyncatch.reproduce.plan import Plan, estimate_s
 from dyncatch.rl.methods import METHODS, paper_claims, trained_methods
 
@@ -64,24 +64,30 @@ def run(plan: Plan, command: str, log: Callable[[str], None], progress=None) -> 
 
     executor = executors.make_executor(plan, log, progress)
     try:
-        log("stage 1/6: frozen predictors")
+        log("stage 1/7: frozen predictors")
         predictors = stages.train_predictors(plan, out, executor)
-        log("stage 2/6: Table II")
+        log("stage 2/7: Table II")
         table_ii = stages.table_ii(plan, out, executor)
-        log(f"stage 3/6: {plan.training_runs} training runs")
+        log(f"stage 3/7: {plan.training_runs} training runs")
         stages.train_policies(plan, out, executor)
-        log("stage 4/6: Table I evaluation")
+        log("stage 4/7: Table I evaluation")
         t1_rows = stages.evaluate_grid(
             plan, out, "table_i", plan.table_i_rows, plan.speeds_mps, executor
         )
-        log("stage 5/6: Fig. 6 evaluation")
+        log("stage 5/7: Fig. 6 evaluation")
         behaviors = plan.fig6_columns
         fig6_speeds = (plan.fig6_speed_mps,)
         fig6_rows = stages.evaluate_grid(plan, out, "fig6", behaviors, fig6_speeds, executor)
         clips = []
         if plan.videos:
-            log("stage 6/6: videos")
+            log("stage 6/7: videos")
             clips = stages.record_videos(plan, out, executor)
+        fig9_rows, fig9_clips = [], []
+        if plan.fig9:
+            log("stage 7/7: Fig. 9 (rooms and woods)")
+            fig9_rows = fig9.evaluate(plan, out, executor)
+            if plan.videos:
+                fig9_clips = fig9.record_videos(plan, out, executor)
     finally:
         executor.close()
 
@@ -122,6 +128,9 @@ def run(plan: Plan, command: str, log: Callable[[str], None], progress=None) -> 
         plan.fig6_speed_mps,
     )
     report.plot_table_i(cells, plan.table_i_rows, figs / "table_i.png")
+    fig9_cells = fig9.summarize(fig9_rows)
+    if plan.fig9:
+        fig9_report.plot(fig9_cells, plan.fig9_scenes, plan.fig9_behaviors, figs / "fig9.png")
 
     wall_path = out / "wall.json"
     previous = json.loads(wall_path.read_text())["total_s"] if wall_path.exists() else 0.0
@@ -147,6 +156,14 @@ def run(plan: Plan, command: str, log: Callable[[str], None], progress=None) -> 
         "fig6": {"cells": fig6_cells, "rows": fig6_rows},
         "training": training,
         "videos": clips,
+        "fig9": {
+            "cells": fig9_cells,
+            "rows": fig9_rows,
+            "paper": fig9_report.paper_json(),
+            "videos": fig9_clips,
+        }
+        if plan.fig9
+        else None,
     }
     layout.write_json(out / "results.json", results)
     (out / "report.md").write_text(render_report(results, plan))
@@ -261,6 +278,8 @@ def render_report(r: dict, plan: Plan) -> str:
             f"- {p['behavior']} {p['kind']}: {p['error_mps']:.3f}{track} "
             f"({p['budget_steps'] / 1e6:g} M steps)"
         )
+    if r["fig9"] is not None:
+        lines += ["", *fig9_report.markdown(r["fig9"], plan)]
     if r["videos"]:
         lines += ["", "## Videos, with the FoV cone and the predicted-velocity arrow", ""]
         for c in r["videos"]:

@@ -15,14 +15,14 @@ from typing import Literal
 from dyncatch.reproduce.paper import PAPER_SPEEDS_MPS
 from dyncatch.rl.config import PPOCfg
 from dyncatch.sim.config import WorldCfg
-from dyncatch.utils.cli_types import BehaviorName, ReadingName
+from dyncatch.utils.cli_types import BehaviorName, ReadingName, SceneName
 
 
 @dataclass(frozen=True)
 class Plan:
     """Train every trained method on each behaviour over seeds (evaluation-only methods
-    reuse their policies), then write Table I, Table II, Fig. 5, Fig. 6, videos, report.md
-    and results.json. Re-running the same command skips finished stages and resumes an
+    reuse their policies), then write Table I, Table II, Fig. 5, Fig. 6, Fig. 9, videos,
+    report.md and results.json. Re-running the same command skips finished stages and resumes an
     interrupted one.
     """
 
@@ -67,7 +67,26 @@ class Plan:
     ones beyond the paper, st_rl and st_fp; list every method wanted to add them). A method
     evaluated with another's policy (sp_fp, st_fp) needs that one (gt_rl) listed too."""
     videos: bool = True
-    """One GIF per behaviour of the filmed method's policy."""
+    """One GIF per behaviour of the filmed method's policy (and one per Fig. 9 scene)."""
+    fig9: bool = True
+    """The Fig. 9 stage: the plane-trained policies in rooms and woods, with and without
+    eq. 10's collision-avoidance blend (dyncatch.reproduce.fig9); --no-fig9 skips it."""
+    fig9_scenes: tuple[SceneName, ...] = (
+        "room_0",
+        "room_4",
+        "room_8",
+        "woods_plane",
+        "woods_rough",
+        "woods_stairs",
+    )
+    """Scenes of Fig. 9 (the paper's Room-0/4/8 and Wood-P/R/S)."""
+    fig9_behaviors: tuple[BehaviorName, ...] = ("circle", "bounce", "reactive", "random_reactive")
+    """Behaviours of Fig. 9 (one not trained on uses the first trained behaviour's
+    policies, as in Fig. 6); the first is filmed."""
+    fig9_episodes: int = 1000
+    """Evaluation episodes per Fig. 9 cell (scene, behaviour, row, seed)."""
+    fig9_duration_s: float | None = None
+    """Episode length of Fig. 9 (default: each scene's, 40 s as in the paper)."""
     vmap_seeds: bool = True
     """Train a (method, behaviour)'s seeds as one vmap-ped computation (dyncatch.rl.seeds:
     equal to separate runs to float tolerance); --no-vmap-seeds trains them one by one."""
@@ -159,6 +178,11 @@ PROFILES: dict[str, Plan] = {
         # minutes: measured 8.5 min, every learned method at 0.73-1.00 success on reactive
         # at 1.8 m/s (one seed, docs/results.md).
         ppo=PPOCfg(hidden_sizes=(128, 128, 64)),
+        # Two scenes (the most obstacles, the hardest ground) on the trained behaviour: 8
+        # cells, each compiled once, and two GIFs (estimated 3 min on 2 cores, not measured).
+        fig9_scenes=("room_8", "woods_rough"),
+        fig9_behaviors=("reactive",),
+        fig9_episodes=100,
     ),
 }
 
@@ -196,7 +220,18 @@ def estimate_s(plan: Plan) -> float:
     pred_steps += len(all_kinds()) * len(plan.table_ii_rows) * max(plan.table_ii_budgets)
     predictors = pred_steps / 1e6 * EST_PREDICTOR_S_PER_M_STEPS + 30 * len(plan.behaviors)
     videos = 30.0 * len(columns) if plan.videos else 0.0
-    return train + evaluate + predictors + videos
+    fig9 = 0.0
+    if plan.fig9:
+        from dyncatch.reproduce.fig9 import FIG9_ROWS
+
+        rows = sum(plan.seeds if r.learned else 1 for r in FIG9_ROWS)
+        cells = rows * len(plan.fig9_scenes) * len(plan.fig9_behaviors)
+        # A 40 s episode is 2 of the 20 s ones the evaluation constant was measured on.
+        episode_s = (plan.fig9_duration_s or 40.0) / 20.0
+        per_cell = plan.fig9_episodes / 1000 * EST_EVAL_S_PER_1000_EPISODES * episode_s
+        fig9 = cells * (per_cell + EST_COMPILE_S_PER_RUN)
+        fig9 += 60.0 * len(plan.fig9_scenes) if plan.videos else 0.0
+    return train + evaluate + predictors + videos + fig9
 
 
 def validate_plan(plan: Plan) -> Plan:
@@ -244,4 +279,21 @@ def validate_plan(plan: Plan) -> Plan:
     rows = (*plan.behaviors, *plan.table_i_rows, *plan.fig6_columns, *plan.table_ii_rows)
     for b in dict.fromkeys(rows):
         validate_world(plan.world.with_behavior(b))
+    if plan.fig9:
+        _validate_fig9(plan)
     return plan
+
+
+def _validate_fig9(plan: Plan) -> None:
+    from dyncatch.reproduce.fig9 import scene_world
+    from dyncatch.sim.validate import validate_world
+
+    if not plan.fig9_scenes or not plan.fig9_behaviors:
+        raise ValueError("--fig9-scenes and --fig9-behaviors need one each (or --no-fig9)")
+    if plan.fig9_episodes < 1:
+        raise ValueError(f"--fig9-episodes must be >= 1, got {plan.fig9_episodes}")
+    if plan.fig9_duration_s is not None and plan.fig9_duration_s <= 0:
+        raise ValueError(f"--fig9-duration-s must be positive, got {plan.fig9_duration_s}")
+    for scene in plan.fig9_scenes:
+        for b in plan.fig9_behaviors:
+            validate_world(scene_world(plan.world, scene, b, plan))

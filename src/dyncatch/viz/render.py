@@ -17,7 +17,7 @@ from collections.abc import Mapping
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.collections import LineCollection
+from matplotlib.collections import LineCollection, PatchCollection
 from matplotlib.colors import to_rgb
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
@@ -51,6 +51,15 @@ VIRTUAL_COLOR = "#999999"
 FOV_SEEN_COLOR = "#2ca02c"
 FOV_BLIND_COLOR = "#bcbd22"
 CAUGHT_COLOR = "#1a7f1a"
+OBSTACLE_COLOR = "#8c6d46"
+"""Boxes and cylinders (rooms), tree trunks (woods)."""
+SCAN_COLOR = "#17becf"
+"""The range scan's rays: bright where a ray hits, faint where it reads its cap."""
+OCCLUDED_COLOR = "#7f7f7f"
+"""The target while an obstacle hides it from the camera (inside the cone and range), and
+the blocked line of sight, dotted."""
+BLEND_COLOR = "#e377c2"
+"""Eq. 10's pi_collid weight w_c over time (the inset)."""
 TRAIL_S = 2.0
 """Length of the target's fading trail."""
 
@@ -146,13 +155,26 @@ class TopDownDrawer:
         cfg: the world (scene, arena, base and arm sizes, camera cone, control rate).
         size_px: width and height of each frame in pixels (at least 64).
         with_pred: draw ``pred_vel_mps`` (and its key entry); rows must then carry it.
+        with_scan: draw the rays of ``scan_m`` (rows carry it, and ``occluded``:
+            ``viz.trajectory.scene_extras``).
+        with_blend: draw eq. 10's weight ``blend_w_c`` over time in an inset (``draw``
+            then takes its history).
+
+    Obstacles (``obstacle_*`` of a row) are drawn whenever a row has any.
 
     Where the view follows the robot (``follows_robot(cfg)``) every world point is drawn at
     its offset from the robot, so the static layer stays fixed and only the grid and the
     virtual square move with the other artists.
     """
 
-    def __init__(self, cfg: WorldCfg, size_px: int = 480, with_pred: bool = False):
+    def __init__(
+        self,
+        cfg: WorldCfg,
+        size_px: int = 480,
+        with_pred: bool = False,
+        with_scan: bool = False,
+        with_blend: bool = False,
+    ):
         if size_px < 64:
             raise ValueError(f"size_px must be at least 64, got {size_px}")
         self.size_px = size_px
@@ -219,6 +241,25 @@ class TopDownDrawer:
         (self.target,) = ax.plot(
             [], [], "o", color=TARGET_COLOR, mec="black", mew=0.6 * pt, ms=target_ms, zorder=7
         )
+        self.obstacles = ax.add_collection(
+            PatchCollection([], fc=OBSTACLE_COLOR, ec="black", lw=0.6 * pt, zorder=2.5)
+        )
+        self.obstacles.set_clip_path(arena)
+        self.scan_cap = cfg.scene.scan_range_m
+        self.scan = ax.add_collection(
+            LineCollection([], color=SCAN_COLOR, lw=0.8 * pt, zorder=1.5, visible=with_scan)
+        )
+        self.scan.set_clip_path(arena)
+        (self.sightline,) = ax.plot([], [], ":", color=OCCLUDED_COLOR, lw=1.5 * pt, zorder=6.5)
+        self.duration_s = float(cfg.episode.duration_s)
+        self.blend_ax = self.blend = None
+        if with_blend:
+            self.blend_ax = self.fig.add_axes((0.68, 0.79, 0.28, 0.09))
+            self.blend_ax.set_xlim(0.0, self.duration_s)
+            self.blend_ax.set_ylim(0.0, 1.0)
+            self.blend_ax.tick_params(labelsize=6 * pt, length=2)
+            self.blend_ax.set_title("blend w_c (eq. 10)", fontsize=6.5 * pt, pad=1.5)
+            (self.blend,) = self.blend_ax.plot([], [], color=BLEND_COLOR, lw=1.2 * pt)
         self.text = ax.text(
             self.floor_lo,
             self.floor_lo + cfg.arena.size_m + _MARGIN_M + 0.5 * _BAND_M,
@@ -233,9 +274,11 @@ class TopDownDrawer:
         self.moving = sorted(
             [self.grid, self.virtual, self.fov, self.reach, self.trail, self.heading,
              self.body, self.arm_line, self.gripper, self.seen, self.pred, self.target,
-             self.text],
+             self.text, self.obstacles, self.scan, self.sightline],
             key=lambda a: a.get_zorder(),
         )  # fmt: skip
+        if self.blend is not None:
+            self.moving.append(self.blend)
         for artist in self.moving:
             artist.set_animated(True)
         self.canvas.draw()
@@ -275,8 +318,40 @@ class TopDownDrawer:
                   borderaxespad=0.0)  # fmt: skip
         return arena
 
+    def _draw_scene(self, row, offset: np.ndarray, xy: np.ndarray, yaw: float, t_xy) -> None:
+        """Obstacles, the scan's rays and an occluded target's blocked line of sight."""
+        centres = np.asarray(row.get("obstacle_xy_m", np.zeros((0, 2))), float) - offset
+        patches = []
+        for c, h, r in zip(
+            centres, row.get("obstacle_half_m", ()), row.get("obstacle_radius_m", ()), strict=True
+        ):
+            if np.any(np.asarray(h) > 0):
+                patches.append(Rectangle(c - h, 2 * h[0], 2 * h[1]))
+            else:
+                patches.append(Circle(c, float(r)))
+        self.obstacles.set_paths(patches)
+        if "scan_m" in row:
+            scan = np.asarray(row["scan_m"], float)
+            ang = yaw + 2.0 * np.pi * np.arange(scan.size) / scan.size
+            ends = xy + scan[:, None] * np.stack([np.cos(ang), np.sin(ang)], axis=-1)
+            self.scan.set_segments(np.stack([np.broadcast_to(xy, ends.shape), ends], axis=1))
+            hit = scan < self.scan_cap - 1e-6
+            self.scan.set_alpha(None)
+            rgba = np.tile([*to_rgb(SCAN_COLOR), 0.0], (scan.size, 1))
+            rgba[:, 3] = np.where(hit, 0.6, 0.08)
+            self.scan.set_color(rgba)
+        occluded = bool(row.get("occluded", False))
+        self.target.set_markerfacecolor(OCCLUDED_COLOR if occluded else TARGET_COLOR)
+        if occluded:
+            self.sightline.set_data([xy[0], t_xy[0]], [xy[1], t_xy[1]])
+        else:
+            self.sightline.set_data([], [])
+
     def draw(
-        self, row: Mapping[str, np.ndarray], trail_xy_m: np.ndarray | None = None
+        self,
+        row: Mapping[str, np.ndarray],
+        trail_xy_m: np.ndarray | None = None,
+        blend_history: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> np.ndarray:
         """Render one state; returns (size_px, size_px, 3) uint8.
 
@@ -288,6 +363,8 @@ class TopDownDrawer:
                 ``pred_vel_mps`` (2,) in m/s if the drawer was built ``with_pred``.
             trail_xy_m: the target's recent positions (K, 2), oldest first, ending with this
                 state's; at most ``trail_rows(cfg) + 1`` are meant to be given. None: no trail.
+            blend_history: (times (T,) s, w_c (T,)) up to this state, drawn in the inset of
+                a drawer built ``with_blend``.
         """
         robot_world = np.asarray(row["robot_xy_m"], float)
         # View coordinates: world ones, or offsets from the robot where the view follows it.
@@ -330,8 +407,14 @@ class TopDownDrawer:
         if self.with_pred:  # drawn as the displacement over one second
             self.pred.set_xy(_arrow(t_xy, np.asarray(row["pred_vel_mps"], float), 0.06, 0.22))
 
+        self._draw_scene(row, offset, xy, yaw, t_xy)
+        if self.blend is not None and blend_history is not None:
+            self.blend.set_data(*blend_history)
+
         caught = bool(row["success"])
+        occluded = bool(row.get("occluded", False))
         status = "CAUGHT" if caught else ("in view" if visible else "out of view")
+        status = "occluded" if occluded and not caught and not visible else status
         self.text.set_color(CAUGHT_COLOR if caught else "black")
         self.text.set_text(
             f"t {float(row['time_s']):5.2f} s | target {float(row['target_speed_mps']):.2f} m/s | "
@@ -366,12 +449,19 @@ def render_frames(
     size around it with the virtual square dashed), the robot footprint and heading, the
     camera cone (green while the last frame saw the target), the arm's activation circle,
     the gripper, the target and its last 2 s, the held sighting (hollow ring),
-    ``pred_vel_mps`` if recorded (an arrow of one second of motion) and a status line.
+    ``pred_vel_mps`` if recorded (an arrow of one second of motion) and a status line;
+    in a scene with obstacles (``record_episode(..., extra_fn=scene_extras(...))``) also
+    the obstacles, the range scan's rays, the occluded target in grey with its blocked line
+    of sight dotted, and eq. 10's weight w_c over time in an inset.
     """
-    drawer = TopDownDrawer(cfg, size_px, with_pred="pred_vel_mps" in traj)
+    blend = "blend_w_c" in traj
+    drawer = TopDownDrawer(
+        cfg, size_px, with_pred="pred_vel_mps" in traj, with_scan="scan_m" in traj, with_blend=blend
+    )
     span = trail_rows(cfg)
     frames = []
     for i in frame_rows(len(traj["time_s"]), every):
         row = {name: values[i] for name, values in traj.items()}
-        frames.append(drawer.draw(row, traj["target_xy_m"][max(0, i - span) : i + 1]))
+        history = (traj["time_s"][: i + 1], traj["blend_w_c"][: i + 1]) if blend else None
+        frames.append(drawer.draw(row, traj["target_xy_m"][max(0, i - span) : i + 1], history))
     return frames

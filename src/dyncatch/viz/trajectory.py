@@ -7,7 +7,9 @@ auto-reset; rows after the first ``done`` are dropped on the host.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
+from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -34,6 +36,9 @@ STATE_KEYS = (
     "visible",
     "ever_seen",
     "success",
+    "obstacle_xy_m",
+    "obstacle_half_m",
+    "obstacle_radius_m",
 )
 """The values of one state that the renderer draws (``state_row``; ``time_s`` on the host)."""
 BUILTIN_KEYS = (*STATE_KEYS, "done")
@@ -59,7 +64,45 @@ def state_row(state: EnvState) -> dict[str, jax.Array]:
         "visible": state.sensor.visible,
         "ever_seen": state.sensor.ever_seen,
         "success": state.success,
+        # (..., K, 2): the origin broadcasts over the obstacles of each state.
+        "obstacle_xy_m": state.obstacles.centre_xy_m + state.origin_xy_m[..., None, :],
+        "obstacle_half_m": state.obstacles.half_m,
+        "obstacle_radius_m": state.obstacles.radius_m,
     }
+
+
+@dataclasses.dataclass(frozen=True)
+class SceneExtras:
+    """``extra_fn`` of a scene with obstacles (``scene_extras``): per row ``scan_m`` (N,)
+    (pi_collid's own scan where a blend is given, else the observation's), ``occluded`` ()
+    bool (the target is in the camera's cone and range but an obstacle hides it) and, with
+    a blend, ``blend_w_c`` () (eq. 10's pi_collid weight)."""
+
+    world: WorldCfg
+    blend: Any = None
+    """A ``policies.blend.BlendCfg``, or None."""
+
+    def __call__(self, state: EnvState, obs: Obs) -> dict[str, jax.Array]:
+        from dyncatch.policies.blend import blend_weights, collid_scan_m
+        from dyncatch.sim.obstacles import line_of_sight
+        from dyncatch.sim.scan import robot_clearance_m
+        from dyncatch.sim.sensing import in_view
+
+        robot, target = state.robot, state.target
+        hidden = ~line_of_sight(state.obstacles, robot.xy_m, target.xy_m)
+        out = {"occluded": in_view(robot, target.xy_m, self.world) & hidden}
+        if self.blend is None:
+            out["scan_m"] = obs.scan_m
+        else:
+            out["scan_m"] = collid_scan_m(state, self.world, self.blend.collid)
+            _, out["blend_w_c"] = blend_weights(robot_clearance_m(state, self.world), self.blend)
+        return out
+
+
+def scene_extras(world: WorldCfg, blend=None) -> SceneExtras:
+    """What ``record_episode`` records for the renderer to draw the range scan, occluded
+    sightings and the blend weight (``blend``: a ``BlendCfg`` or None)."""
+    return SceneExtras(world, blend)
 
 
 def _snapshot(state: EnvState, done: jax.Array, extra_fn, obs: Obs) -> dict:

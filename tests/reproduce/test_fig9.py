@@ -1,0 +1,78 @@
+"""The Fig. 9 stage at a tiny size: its cells agree with a direct evaluation, and it writes
+its table, figure and GIF; the paper's values stand beside ours."""
+
+import json
+
+import jax
+import pytest
+
+from dyncatch.evaluation.episodes import run_episodes
+from dyncatch.policies.blend import blended
+from dyncatch.policies.registry import BASELINES
+from dyncatch.reproduce import fig9, fig9_report
+from dyncatch.reproduce.executors import SerialExecutor
+from dyncatch.reproduce.plan import Plan, validate_plan
+
+PLAN = Plan(
+    quick=True,
+    fig9_scenes=("room_4",),
+    fig9_behaviors=("reactive",),
+    fig9_episodes=4,
+    fig9_duration_s=1.0,
+)
+# One row keeps the test to one compiled evaluation; the learned rows need trained runs
+# (the tiny reproduction leaves Fig. 9 off).
+ROWS = (fig9.ROWS["pursuit+blend"],)
+EXECUTOR = SerialExecutor(log=lambda msg: None)
+
+
+@pytest.fixture(scope="module")
+def stage(tmp_path_factory):
+    out = tmp_path_factory.mktemp("fig9")
+    validate_plan(PLAN)
+    return out, fig9.evaluate(PLAN, out, EXECUTOR, rows=ROWS)
+
+
+def test_cells_agree_with_a_direct_evaluation(stage):
+    _, rows = stage
+    assert [(r["scene"], r["behavior"], r["method"]) for r in rows] == [
+        ("room_4", "reactive", "pursuit+blend"),
+    ]
+    world = fig9.scene_world(PLAN.world, "room_4", "reactive", PLAN)
+    assert world.episode.duration_s == 1.0 and world.scene.name == "room_4"
+    policy = blended(BASELINES["pursuit"](world), world)
+    key = fig9.cell_key("room_4", "reactive")
+    direct = jax.device_get(run_episodes(policy, key, world, 4, contact_tol_m=fig9.CONTACT_TOL_M))
+    assert rows[0]["success_rate"] == pytest.approx(direct["success"].mean())
+    assert rows[0]["contacts_per_episode"] == pytest.approx(direct["contacts"].mean())
+    for r in rows:
+        assert 0.0 <= r["catch_time_s"] <= 1.0 + 1e-6 and r["contacts_per_episode"] >= 0.0
+
+
+def test_table_and_figure_are_written(stage):
+    out, rows = stage
+    cells = fig9.summarize(rows)
+    assert {c["method"] for c in cells} == {"pursuit+blend"}
+    assert all(c["ci_over"] == "episodes" and c["seeds"] == 0 for c in cells)
+    path = out / "fig9.png"
+    fig9_report.plot(cells, PLAN.fig9_scenes, PLAN.fig9_behaviors, path)
+    assert path.stat().st_size > 0
+    text = "\n".join(fig9_report.markdown({"cells": cells, "videos": []}, PLAN))
+    assert "| pursuit (scripted) + blend |" in text and "### reactive" in text
+    paper = fig9_report.paper_json()
+    assert {(p["scene"], p["behavior"]) for p in paper["success"]} == {
+        ("room_0", "circle"),
+        ("room_0", "bounce"),
+        ("room_0", "reactive"),
+    }
+    json.dumps(paper)
+
+
+@pytest.mark.extended  # a second compiled rollout and a GIF: about 15 s more on 2 cores
+def test_a_gif_per_scene(stage):
+    out, _ = stage
+    clips = fig9.record_videos(PLAN, out, EXECUTOR, row="pursuit+blend")
+    assert (out / "videos" / "fig9_room_4.gif").stat().st_size > 0
+    assert [c["scene"] for c in clips] == ["room_4"]
+    text = "\n".join(fig9_report.markdown({"cells": [], "videos": clips}, PLAN))
+    assert "fig9_room_4.gif" in text
