@@ -62,7 +62,7 @@ def study_argv(out: Path, setting: tuple[str, ...], args) -> list[str]:
     # rows evaluate those policies and predictors (transfer, ``trained_on`` in results.json).
     argv += ["--behaviors", "reactive", "--table-i-behaviors", "reactive", "random_reactive"]
     argv += ["--fig6-behaviors", "reactive", "--table-ii-behaviors", "reactive"]
-    argv += ["--table-ii-budgets", "2000000", "--no-videos"]
+    argv += ["--table-ii-budgets", "2000000", "--no-videos", "--no-fig9"]
     # Seeds one by one, as the study's first settings were trained (before seed groups).
     argv += ["--no-vmap-seeds"]
     if setting:

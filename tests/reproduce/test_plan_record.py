@@ -60,3 +60,13 @@ def test_a_plan_recorded_before_vmap_seeds_resumes_only_one_seed_at_a_time(tmp_p
         check_plan(tmp_path, Plan(seeds=2))
     check_plan(tmp_path, Plan(seeds=2, vmap_seeds=False))
     assert json.loads((tmp_path / "plan.json").read_text())["vmap_seeds"] is False
+
+
+@pytest.mark.parametrize("fig9", [False, True])
+def test_a_plan_recorded_before_fig9_resumes_with_the_stage_off_or_on(tmp_path, fig9):
+    """Before the field no Fig. 9 ran (off); turning the stage on only adds its files."""
+    recorded = _record(tmp_path, Plan(seeds=2))
+    del recorded["fig9"]
+    (tmp_path / "plan.json").write_text(json.dumps(recorded))
+    check_plan(tmp_path, Plan(seeds=2, fig9=fig9))
+    assert json.loads((tmp_path / "plan.json").read_text())["fig9"] is fig9

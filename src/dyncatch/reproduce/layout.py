@@ -68,28 +68,28 @@ def check_plan(out: Path, plan: Plan) -> None:
         write_json(path, want)
 
 
-LEGACY_VALUES: dict[str, object] = {"vmap_seeds": False}
-"""Plan fields added after plans were recorded whose default is not what the code did
-before them, mapped to the value that is: plans recorded before ``vmap_seeds`` trained
-their seeds one by one."""
+LEGACY_VALUES: dict[str, tuple] = {"vmap_seeds": (False,), "fig9": (False, True)}
+"""Plan fields added after plans were recorded whose default is not (only) what the code did
+before them, mapped to the values a recorded plan without them is compatible with: plans
+recorded before ``vmap_seeds`` trained their seeds one by one; plans recorded before
+``fig9`` ran no Fig. 9 (off), and turning the stage on only adds its files."""
 
 
 def _real_diff(have: dict, want: dict) -> dict:
     """The differing fields, leaving out those the recorded plan lacks whose new value is
-    what the code did before the field existed: its ``LEGACY_VALUES`` entry, else its
-    default in the recorded plan's profile (a field added later defaults to the old
-    behaviour unless listed there; a stage added later, such as Fig. 9, only adds files).
-    So a cached study made before it still holds. A field removed since, or one set to
-    another value, counts."""
+    compatible with what the code did before the field existed: one of its ``LEGACY_VALUES``,
+    else its default in the recorded plan's profile (a field added later defaults to the old
+    behaviour unless listed there). So a cached study made before it still holds. A field
+    removed since, or one set to another value, counts."""
     from dyncatch.utils.config_io import flatten
 
     profile = PROFILES["quick" if have.get("quick") else "full"]
-    defaults = {**flatten(profile.to_json()), **LEGACY_VALUES}
+    accepted = {k: (v,) for k, v in flatten(profile.to_json()).items()} | LEGACY_VALUES
     known = flatten(have)
     return {
         k: v
         for k, v in config_diff(have, want).items()
-        if k in known or k not in defaults or v[1] != defaults[k]
+        if k in known or k not in accepted or v[1] not in accepted[k]
     }
 
 
