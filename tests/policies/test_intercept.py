@@ -5,6 +5,7 @@ import math
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 from dyncatch.evaluation.episodes import run_episodes
 from dyncatch.policies.intercept import (
@@ -55,6 +56,7 @@ def test_kalman_filter_recovers_a_constant_velocity_from_2hz_sightings():
     np.testing.assert_allclose(c.pos_m, v_true * 4.0, atol=0.02)
 
 
+@pytest.mark.extended  # a behaviour claim; the by-hand interception and Kalman tests cover the code
 def test_interception_beats_pure_pursuit_on_fast_bouncing_targets():
     world = WorldCfg()
     cfg = world.with_behavior("bounce").with_speed(1.8)

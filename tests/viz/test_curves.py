@@ -1,6 +1,7 @@
 """Learning curves: the plotted lines are the CSV's numbers; ``dyncatch plot`` on real runs."""
 
 import numpy as np
+import pytest
 
 from dyncatch.cli.main import main
 from dyncatch.viz.curves import plot_runs
@@ -58,6 +59,7 @@ def test_bad_runs_and_metrics_are_one_line_errors(tmp_path, capsys):
     assert not (tmp_path / "c.png").exists()
 
 
+@pytest.mark.extended  # trains two runs; test_the_plotted_lines_are_the_csv_values covers plotting
 def test_plot_two_trained_runs(tmp_path):
     runs = []
     for seed in (0, 1):
