@@ -42,33 +42,46 @@ LOSSES = {"norm": l2_error, "squared": squared_error}
 """Per-sample training losses by name; the reported error is always ``l2_error``."""
 
 
-def _optimizer(cfg: TrainCfg) -> optax.GradientTransformation:
+def adam_cosine(cfg) -> optax.GradientTransformation:
+    """Adam under a cosine decay from ``cfg.lr`` over ``cfg.updates`` steps to
+    ``cfg.final_lr_frac`` of it (the predictor's and the tracker's optimiser)."""
     lr = optax.cosine_decay_schedule(cfg.lr, cfg.updates, alpha=cfg.final_lr_frac)
     return optax.adam(lr)
+
+
+def minibatch_steps(loss_fn, opt, params, opt_state, n, key, batch_size: int, steps: int):
+    """``steps`` Adam steps of ``loss_fn(params, idx)`` on minibatches of ``batch_size``
+    indices drawn with replacement from ``n`` samples, in one ``lax.scan`` (traced inside
+    the caller's jit). The normalisation statistics ``in_mean``/``in_std`` are data, not
+    weights: their gradients are zeroed. Returns (params, opt_state, mean loss)."""
+
+    def update(carry, k):
+        params, opt_state = carry
+        idx = jax.random.randint(k, (batch_size,), 0, n)
+        loss, grads = jax.value_and_grad(loss_fn)(params, idx)
+        grads = {
+            **grads,
+            "in_mean": jnp.zeros_like(grads["in_mean"]),
+            "in_std": jnp.zeros_like(grads["in_std"]),
+        }
+        updates, opt_state = opt.update(grads, opt_state, params)
+        return (optax.apply_updates(params, updates), opt_state), loss
+
+    keys = jax.random.split(key, steps)
+    (params, opt_state), losses = jax.lax.scan(update, (params, opt_state), keys)
+    return params, opt_state, jnp.mean(losses)
 
 
 @partial(jax.jit, static_argnames=("predictor", "cfg"))
 def _train_chunk(predictor: Predictor, cfg: TrainCfg, params, opt_state, data, n, key):
     x, yaw, v = data
-    opt = _optimizer(cfg)
 
     def loss_fn(p, idx):
         v_hat = predictor.apply_encoded(p, x[idx], yaw[idx])
         return jnp.mean(LOSSES[cfg.loss](v_hat, v[idx]))
 
-    def update(carry, k):
-        params, opt_state = carry
-        idx = jax.random.randint(k, (cfg.batch_size,), 0, n)
-        loss, grads = jax.value_and_grad(loss_fn)(params, idx)
-        # The normalisation statistics are data, not weights.
-        grads = {**grads, "in_mean": jnp.zeros_like(grads["in_mean"])}
-        grads["in_std"] = jnp.zeros_like(grads["in_std"])
-        updates, opt_state = opt.update(grads, opt_state, params)
-        return (optax.apply_updates(params, updates), opt_state), loss
-
-    keys = jax.random.split(key, cfg.log_every)
-    (params, opt_state), losses = jax.lax.scan(update, (params, opt_state), keys)
-    return params, opt_state, jnp.mean(losses)
+    opt = adam_cosine(cfg)
+    return minibatch_steps(loss_fn, opt, params, opt_state, n, key, cfg.batch_size, cfg.log_every)
 
 
 def fit(
@@ -92,7 +105,7 @@ def fit(
     params = predictor.init(k_init)
     params["in_mean"] = jnp.asarray(x[:n].mean(0))
     params["in_std"] = jnp.asarray(x[:n].std(0) + 1e-3)
-    opt_state = _optimizer(cfg).init(params)
+    opt_state = adam_cosine(cfg).init(params)
     data = (jnp.asarray(x), jnp.asarray(yaw), jnp.asarray(labels_mps))
     log = []
     for chunk in range(max(cfg.updates // cfg.log_every, 1)):

@@ -15,11 +15,11 @@ from functools import partial
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optax
 
 from dyncatch.predictor.tracker.config import CHI2_2D_95, TrackerTrainCfg
 from dyncatch.predictor.tracker.data import TrackSamples
 from dyncatch.predictor.tracker.model import Gaussian, Tracker
+from dyncatch.predictor.train import adam_cosine, minibatch_steps
 
 
 def gaussian_nll(mean: jax.Array, std: jax.Array, value: jax.Array) -> jax.Array:
@@ -35,36 +35,16 @@ def nll_loss(g: Gaussian, label: jax.Array, vel_weight: float) -> jax.Array:
     return pos + vel_weight * vel
 
 
-def _optimizer(cfg: TrackerTrainCfg) -> optax.GradientTransformation:
-    lr = optax.cosine_decay_schedule(cfg.lr, cfg.updates, alpha=cfg.final_lr_frac)
-    return optax.adam(lr)
-
-
 @partial(jax.jit, static_argnames=("tracker", "cfg"))
 def _train_chunk(tracker: Tracker, cfg: TrackerTrainCfg, params, opt_state, data, n, key):
     x, base, label = data
-    opt = _optimizer(cfg)
 
     def loss_fn(p, idx):
         g = tracker.apply_encoded(p, x[idx], base[idx])
         return jnp.mean(nll_loss(g, label[idx], cfg.vel_weight))
 
-    def update(carry, k):
-        params, opt_state = carry
-        idx = jax.random.randint(k, (cfg.batch_size,), 0, n)
-        loss, grads = jax.value_and_grad(loss_fn)(params, idx)
-        # The normalisation statistics are data, not weights.
-        grads = {
-            **grads,
-            "in_mean": jnp.zeros_like(grads["in_mean"]),
-            "in_std": jnp.zeros_like(grads["in_std"]),
-        }
-        updates, opt_state = opt.update(grads, opt_state, params)
-        return (optax.apply_updates(params, updates), opt_state), loss
-
-    keys = jax.random.split(key, cfg.log_every)
-    (params, opt_state), losses = jax.lax.scan(update, (params, opt_state), keys)
-    return params, opt_state, jnp.mean(losses)
+    opt = adam_cosine(cfg)
+    return minibatch_steps(loss_fn, opt, params, opt_state, n, key, cfg.batch_size, cfg.log_every)
 
 
 def fit_tracker(
@@ -82,7 +62,7 @@ def fit_tracker(
     params = tracker.init(k_init)
     params["in_mean"] = jnp.asarray(samples.x[:n].mean(0))
     params["in_std"] = jnp.asarray(samples.x[:n].std(0) + 1e-3)
-    opt_state = _optimizer(cfg).init(params)
+    opt_state = adam_cosine(cfg).init(params)
     data = tuple(jnp.asarray(a) for a in (samples.x, samples.base, samples.label))
     log = []
     for chunk in range(max(cfg.updates // cfg.log_every, 1)):
