@@ -22,7 +22,7 @@ PLAN = Plan(
 )
 # One row keeps the test to one compiled evaluation; the learned rows need trained runs
 # (the tiny reproduction leaves Fig. 9 off).
-ROWS = (fig9.ROWS["pursuit+blend"],)
+ROWS = (fig9.row_named("pursuit+blend"),)
 EXECUTOR = SerialExecutor(log=lambda msg: None)
 
 
@@ -76,3 +76,18 @@ def test_a_gif_per_scene(stage):
     assert [c["scene"] for c in clips] == ["room_4"]
     text = "\n".join(fig9_report.markdown({"cells": [], "videos": clips}, PLAN))
     assert "fig9_room_4.gif" in text
+
+
+def test_rows_follow_the_plan_and_names_round_trip():
+    """A method beyond the paper that PPO trains (st_rl) gains a blended row when the plan
+    selects it; st_fp (gt_rl's policy) and the default plan's methods add none."""
+    from dyncatch.reproduce.plan import estimate_s
+
+    assert fig9.rows_of(Plan()) == fig9.FIG9_ROWS
+    tracked = Plan(methods=("rl", "p_rl", "sp_fp", "sp_rl", "gt_rl", "st_fp", "st_rl"))
+    assert fig9.rows_of(tracked) == (*fig9.FIG9_ROWS, fig9.Fig9Row("st_rl", True))
+    assert estimate_s(tracked) > estimate_s(Plan())
+    for row in fig9.rows_of(tracked):
+        assert fig9.row_named(row.name) == row
+    with pytest.raises(ValueError, match="POLICY\\+blend"):
+        fig9.row_named("sp_rl+fast")

@@ -74,3 +74,39 @@ def test_finished_work_makes_no_job_and_is_read_back(tmp_path):
     assert ex.jobs == []
     assert [r["method"] for r in got] == [m for m, _ in policies(plan)]
     assert {r["trained_on"] for r in got} == {"reactive"}
+
+
+def test_a_column_not_trained_on_plays_the_first_behaviours_policy_in_its_own_world(
+    tmp_path, monkeypatch
+):
+    """Transfer (Fig. 6's columns beyond the trained behaviours): the policy and predictor
+    come from the first trained behaviour's run, and the episodes are the column's."""
+    import types
+
+    import dyncatch.rl.policy as rl_policy
+    from dyncatch.policies.registry import BASELINES
+    from dyncatch.reproduce.stages import _eval_job
+    from dyncatch.sim.config import WorldCfg
+
+    world = WorldCfg()
+    world = world.replace(episode=world.episode.replace(duration_s=1.0))
+    plan = Plan(seeds=1, behaviors=("reactive",), episodes=4, world=world)
+    loaded = []
+
+    def fake_load_run(run, as_method=None, predictor=None):
+        loaded.append((run, as_method, predictor))
+        return types.SimpleNamespace(policy=BASELINES["pursuit"](world), world=world)
+
+    monkeypatch.setattr(rl_policy, "load_run", fake_load_run)
+    _eval_job(plan, tmp_path, "fig6", "circle", "sp_rl", 0, (1.2,))
+    run, as_method, predictor = loaded[0]
+    assert run == run_dir(tmp_path, "reactive", "sp_rl", 0)
+    assert as_method == "sp_rl" and "reactive" in str(predictor)
+    rows = json.loads(cell_path(tmp_path, "fig6", "circle", "sp_rl", 0).read_text())
+    assert [(r["behavior"], r["speed_mps"], r["episodes"]) for r in rows] == [("circle", 1.2, 4)]
+    for method, seed in policies(plan):  # the other cells, as finished
+        path = cell_path(tmp_path, "fig6", "circle", method, seed)
+        if not path.exists():
+            path.write_text(json.dumps([{"method": method}]))
+    got = evaluate_grid(plan, tmp_path, "fig6", ("circle",), (1.2,), Recorder())
+    assert {r["trained_on"] for r in got} == {"reactive"}

@@ -63,7 +63,23 @@ FIG9_ROWS: tuple[Fig9Row, ...] = (
 )
 """The rows of Fig. 9: the paper's method without and with the blend (its effect), and
 the baselines with it."""
-ROWS = {r.name: r for r in FIG9_ROWS}
+
+
+def rows_of(plan: Plan) -> tuple[Fig9Row, ...]:
+    """The rows a plan evaluates: ``FIG9_ROWS``, then each selected method beyond the
+    paper that PPO trains (``st_rl``), with the blend, as the paper's method is shown."""
+    from dyncatch.rl.methods import METHODS, trained_methods
+
+    extra = [m for m in trained_methods(plan.method_names) if not METHODS[m].reproduced]
+    return FIG9_ROWS + tuple(Fig9Row(m, True) for m in extra)
+
+
+def row_named(name: str) -> Fig9Row:
+    """The row of a name (``policy`` or ``policy+blend``)."""
+    policy, plus, rest = name.partition("+")
+    if plus and rest != "blend":
+        raise ValueError(f"not a Fig. 9 row: {name!r} (want POLICY or POLICY+blend)")
+    return Fig9Row(policy, bool(plus))
 
 
 def scene_world(world, scene: str, behavior: str, plan: Plan):
@@ -119,7 +135,7 @@ def _cell_job(plan: Plan, out: Path, scene, behavior, row: str, seed, progress=N
         from dyncatch.evaluation.episodes import run_episodes
         from dyncatch.evaluation.stats import summarize
 
-        policy, world = deployed(plan, out, scene, behavior, ROWS[row], seed)
+        policy, world = deployed(plan, out, scene, behavior, row_named(row), seed)
         key = cell_key(scene, behavior)
         outcome = jax.device_get(
             run_episodes(policy, key, world, plan.fig9_episodes, contact_tol_m=CONTACT_TOL_M)
@@ -135,7 +151,7 @@ def _cell_job(plan: Plan, out: Path, scene, behavior, row: str, seed, progress=N
             "success_ci95": s["success_ci95"],
             "catch_time_s": s["catch_time_s"],
             "contacts_per_episode": float(np.mean(outcome["contacts"])),
-            "trained_on": source_behavior(plan, behavior) if ROWS[row].learned else None,
+            "trained_on": source_behavior(plan, behavior) if row_named(row).learned else None,
         }
 
     cached(cell_path(out, scene, behavior, row, seed), compute)
@@ -151,9 +167,10 @@ def _cells(plan: Plan, rows) -> list[tuple]:
     ]
 
 
-def evaluate(plan: Plan, out: Path, executor, rows=FIG9_ROWS) -> list[dict]:
-    """Every cell of Fig. 9 (cached one file each); the rows of all of them."""
-    cells = _cells(plan, rows)
+def evaluate(plan: Plan, out: Path, executor, rows=None) -> list[dict]:
+    """Every cell of Fig. 9 (cached one file each; default rows: ``rows_of(plan)``); the
+    rows of all of them."""
+    cells = _cells(plan, rows_of(plan) if rows is None else rows)
     executor.run(
         [
             Job(
@@ -176,7 +193,7 @@ def _video_job(plan: Plan, out: Path, scene: str, row: str, progress=None) -> No
 
     path = out / "videos" / f"fig9_{scene}.gif"
     behavior = plan.fig9_behaviors[0]
-    r = ROWS[row]
+    r = row_named(row)
 
     def compute():
         policy, world = deployed(plan, out, scene, behavior, r, 0 if r.learned else None)

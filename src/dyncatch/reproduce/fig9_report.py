@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dyncatch.reproduce.fig9 import FIG9_ROWS, ROWS
+from dyncatch.reproduce.fig9 import row_named, rows_of
 from dyncatch.reproduce.paper import (
     PAPER_FIG9_METHOD,
     PAPER_FIG9_SCENE_AVERAGE,
@@ -23,7 +23,7 @@ PANELS = (
 def _color(row: str) -> str:
     from dyncatch.reproduce.report import color
 
-    return color(ROWS[row].policy)
+    return color(row_named(row).policy)
 
 
 def paper_json() -> dict:
@@ -48,7 +48,7 @@ def plot(cells: list[dict], scenes, behaviors, path: Path) -> None:
     import matplotlib.pyplot as plt
 
     by = {(c["scene"], c["behavior"], c["method"]): c for c in cells}
-    rows = [r.name for r in FIG9_ROWS if any(k[2] == r.name for k in by)]
+    rows = list(dict.fromkeys(c["method"] for c in cells))  # in the plan's row order
     fig, axes = plt.subplots(
         len(PANELS), len(behaviors), figsize=(1.2 + 3.2 * len(behaviors), 8), squeeze=False
     )
@@ -77,9 +77,9 @@ def plot(cells: list[dict], scenes, behaviors, path: Path) -> None:
                     yerr=err,
                     capsize=2,
                     color=_color(row),
-                    hatch="" if ROWS[row].blend else "//",
-                    edgecolor="white" if ROWS[row].blend else "black",
-                    label=ROWS[row].label,
+                    hatch="" if row_named(row).blend else "//",
+                    edgecolor="white" if row_named(row).blend else "black",
+                    label=row_named(row).label,
                 )
             if row == PAPER_FIG9_METHOD:
                 paper = [PAPER_FIG9_SUCCESS.get((sc, behavior), np.nan) for sc in scenes]
@@ -134,7 +134,7 @@ def markdown(fig9: dict, plan) -> list[str]:
             "| row | " + " | ".join(scenes) + " |",
             "|---|" + "---|" * len(scenes),
         ]
-        for r in FIG9_ROWS:
+        for r in rows_of(plan):
             got = [by.get((sc, behavior, r.name)) for sc in scenes]
             if all(c is None for c in got):
                 continue
@@ -148,7 +148,7 @@ def markdown(fig9: dict, plan) -> list[str]:
     for c in fig9.get("videos") or []:
         outcome = f"caught at {c['catch_time_s']:.1f} s" if c["caught"] else "not caught"
         lines.append(
-            f"- {ROWS[c['method']].label} in [{c['scene']}]({c['file']}), "
+            f"- {row_named(c['method']).label} in [{c['scene']}]({c['file']}), "
             f"{c['behavior']}: {outcome}"
         )
     return lines

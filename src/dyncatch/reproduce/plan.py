@@ -223,12 +223,13 @@ def estimate_s(plan: Plan) -> float:
     videos = 30.0 * len(columns) if plan.videos else 0.0
     fig9 = 0.0
     if plan.fig9:
-        from dyncatch.reproduce.fig9 import FIG9_ROWS
+        from dyncatch.reproduce.fig9 import rows_of
 
         # The seeds of a trained row share one compilation (a pytree policy is an argument).
+        rows = rows_of(plan)
         scenes_behaviors = len(plan.fig9_scenes) * len(plan.fig9_behaviors)
-        cells = sum(plan.seeds if r.learned else 1 for r in FIG9_ROWS) * scenes_behaviors
-        compiles = len(FIG9_ROWS) * scenes_behaviors
+        cells = sum(plan.seeds if r.learned else 1 for r in rows) * scenes_behaviors
+        compiles = len(rows) * scenes_behaviors
         # A 40 s episode is 2 of the 20 s ones the evaluation constant was measured on.
         episode_s = (plan.fig9_duration_s or 40.0) / 20.0
         per_cell = plan.fig9_episodes / 1000 * EST_EVAL_S_PER_1000_EPISODES * episode_s
