@@ -10,7 +10,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 
-from dyncatch.evaluation.episodes import run_episodes
+from dyncatch.evaluation.episodes import run_episodes, run_episodes_at_speeds
 
 
 @dataclasses.dataclass(frozen=True)
@@ -22,6 +22,10 @@ class EvalBackend:
     extra_keys: tuple[str, ...] = ()
     """Outcome keys beyond success, catch time and return that a row reports as rates
     (``fell`` -> ``fell_rate``)."""
+    run_speeds: Callable | None = None
+    """Optional: ``(policy, keys (S,), env_or_world, speeds (S,), num_episodes)`` -> the
+    outcomes of ``run`` at each speed with its key, as (S, N) arrays, in one call
+    (``evaluation.grid.evaluate_speeds`` loops over ``run`` without it)."""
 
 
 def _run_mujoco(policy, key, env, num_episodes):
@@ -32,7 +36,11 @@ def _run_mujoco(policy, key, env, num_episodes):
 
 
 EVAL_BACKENDS: dict[str, EvalBackend] = {
-    "jax": EvalBackend(run_episodes, "the reduced-order JAX world (sim.env)"),
+    "jax": EvalBackend(
+        run_episodes,
+        "the reduced-order JAX world (sim.env)",
+        run_speeds=run_episodes_at_speeds,
+    ),
     "mujoco": EvalBackend(
         _run_mujoco,
         "the full-body Aliengo + Z1 in MuJoCo under the trot and the arm's IK "

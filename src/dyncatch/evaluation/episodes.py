@@ -107,3 +107,33 @@ def run_episodes(
     if contact_tol_m is not None:
         out["contacts"] = contacts
     return out
+
+
+def _run_speeds_impl(policy, keys, env, speeds, num_episodes, num_steps, contact_tol_m=None):
+    def one(key, speed):
+        cell = env.with_world(env.world.with_speed(speed))
+        return _run_impl(policy, key, cell, num_episodes, num_steps, contact_tol_m)
+
+    return jax.vmap(one)(keys, speeds)
+
+
+_speeds_static = jax.jit(_run_speeds_impl, static_argnames=("policy", *_STATIC))
+_speeds_pytree = jax.jit(_run_speeds_impl, static_argnames=_STATIC)
+
+
+def run_episodes_at_speeds(
+    policy: Callable, keys: jax.Array, env: Environment | WorldCfg, speeds_mps, num_episodes: int
+) -> dict[str, jax.Array]:
+    """``run_episodes`` at each fixed target speed, all speeds in one batched computation:
+    row ``i`` of every output, shape (S, N), is ``run_episodes(policy, keys[i],
+    env.with_speed(speeds_mps[i]), num_episodes)`` (the same episodes, to float
+    tolerance; one compilation and one larger batch instead of S calls). The speed is a
+    traced leaf of the world, so the JAX world only."""
+    env = as_env(env)
+    num_steps = int(env.world.episode.max_steps)
+    speeds = jnp.asarray(speeds_mps, jnp.float32)
+    run = _speeds_pytree if getattr(policy, "is_pytree_policy", False) else _speeds_static
+    success, steps, ret, _ = run(policy, keys, env, speeds, num_episodes, num_steps, None)
+    dt = env.world.episode.dt_s
+    catch_time = jnp.where(success, steps * dt, num_steps * dt)
+    return {"success": success, "catch_time_s": catch_time, "return": ret}

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 
 from dyncatch.evaluation.backends import get_backend
@@ -31,10 +32,18 @@ def evaluate_speeds(
     env = as_env(env)
     entry = get_backend(backend)
     key = jax.random.fold_in(jax.random.key(seed), EVAL_STREAM)
+    keys = [jax.random.fold_in(key, i) for i in range(len(speeds_mps))]
+    env = env.with_world(env.world.with_behavior(behavior))
+    if entry.run_speeds is not None:  # every speed in one batched call
+        both = jax.device_get(entry.run_speeds(policy, jnp.stack(keys), env, speeds_mps, episodes))
+        outcomes = [{k: v[i] for k, v in both.items()} for i in range(len(speeds_mps))]
+    else:
+        outcomes = [
+            entry.run(policy, k, env.with_world(env.world.with_speed(v)), episodes)
+            for k, v in zip(keys, speeds_mps, strict=True)
+        ]
     rows = []
-    for i, speed in enumerate(speeds_mps):
-        cell = env.with_world(env.world.with_behavior(behavior).with_speed(speed))
-        outcome = entry.run(policy, jax.random.fold_in(key, i), cell, episodes)
+    for speed, outcome in zip(speeds_mps, outcomes, strict=True):
         s = summarize(outcome)
         extra = {f"{k}_rate": float(np.mean(outcome[k])) for k in entry.extra_keys}
         rows.append(
