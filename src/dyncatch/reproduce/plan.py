@@ -80,10 +80,11 @@ class Plan:
         "woods_stairs",
     )
     """Scenes of Fig. 9 (the paper's Room-0/4/8 and Wood-P/R/S)."""
-    fig9_behaviors: tuple[BehaviorName, ...] = ("circle", "bounce", "reactive")
+    fig9_behaviors: tuple[BehaviorName, ...] = ("circle", "bounce", "reactive", "random_reactive")
     """Behaviours of Fig. 9: the paper's three (Sec. V-E names circle, bounce and reactive,
-    and its Room-0 average, 86.8 %, is their mean). One not trained on uses the first trained
-    behaviour's policies, as in Fig. 6; the first is filmed."""
+    and its Room-0 average, 86.8 %, is their mean) and random_reactive (Table I's other
+    row). One not trained on uses the first trained behaviour's policies, as in Fig. 6; the
+    first is filmed."""
     fig9_episodes: int = 1000
     """Evaluation episodes per Fig. 9 cell (scene, behaviour, row, seed)."""
     fig9_duration_s: float | None = None
