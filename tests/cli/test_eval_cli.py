@@ -31,3 +31,27 @@ def test_bad_input_is_one_line_error(capsys):
     assert err.count("\n") == 0 and "telepathy" in err and "pursuit" in err
     assert main(["eval", "pursuit", "--speeds", "-1"]) == 2
     assert "--speeds" in capsys.readouterr().err
+    assert main(["eval", "pursuit", "--scan", "plane"]) == 2
+    assert "--scan applies to trained runs" in capsys.readouterr().err
+
+
+def test_a_baseline_deployed_with_the_blend_in_a_room(capsys, monkeypatch):
+    """--blend wraps the policy that is evaluated (the evaluation itself is Fig. 9's,
+    tested in tests/reproduce/test_fig9.py; here it is replaced to keep the test cheap)."""
+    import dyncatch.evaluation.grid as grid
+    from dyncatch.policies.blend import Blended
+
+    seen = []
+
+    def fake(policy, world, behavior, speeds, episodes, seed, method, backend="jax"):
+        seen.append((policy, world.scene.name))
+        return [{"speed_mps": v, "episodes": episodes} for v in speeds]
+
+    monkeypatch.setattr(grid, "evaluate_speeds", fake)
+    argv = ["eval", "pursuit", "--scene", "room_8", "--speeds", "1.0", "--episodes", "4"]
+    assert main([*argv, "--blend", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["deployment"] == {"blend": True, "scan": None}
+    assert isinstance(seen[0][0], Blended) and seen[0][1] == "room_8"
+    assert main([*argv, "--json"]) == 0
+    assert not isinstance(seen[1][0], Blended)

@@ -195,3 +195,21 @@ def test_plane_scan_shows_the_catch_policy_a_scan_at_its_cap():
     assert policy.is_pytree_policy
     _, seen = policy.step((), state, obs, jax.random.key(0))
     np.testing.assert_array_equal(seen, [10.0, 10.0, 10.0])
+
+
+def test_deploy_shows_a_plane_trained_policy_the_planes_scan_only_where_it_matters():
+    from dyncatch.policies.blend import Blended, PlaneScan, deploy
+    from dyncatch.policies.registry import BASELINES
+
+    plane, room = WorldCfg(), WorldCfg().with_scene("room_8")
+    catch = BASELINES["pursuit"](room)
+    assert isinstance(deploy(catch, plane, room), PlaneScan)  # trained on the plane, in a room
+    assert deploy(catch, plane, plane) is catch  # the plane's scan already reads nothing
+    assert deploy(catch, room, room) is catch  # trained with walls in its scan
+    assert deploy(catch, None, room) is catch  # a baseline
+    assert deploy(catch, plane, room, scan="own") is catch
+    assert isinstance(deploy(catch, room, room, scan="plane"), PlaneScan)
+    both = deploy(catch, plane, room, blend=True)
+    assert isinstance(both, Blended) and isinstance(both.catch, PlaneScan)
+    with pytest.raises(ValueError, match="scan must be"):
+        deploy(catch, plane, room, scan="walls")

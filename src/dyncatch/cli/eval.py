@@ -9,6 +9,7 @@ from __future__ import annotations
 import dataclasses
 import json
 from pathlib import Path
+from typing import Literal
 
 import tyro
 
@@ -38,8 +39,16 @@ class EvalCmd:
     """Where the episodes are played (dyncatch.evaluation.backends): jax, the reduced-order
     world; mujoco, the full-body Aliengo + Z1 (pip install -e '.[fullbody]'; open plane
     only; docs/fullbody.md). The same seed plays the same episodes on both."""
+    blend: bool = False
+    """Deploy with eq. 10's collision avoidance (policies.blend, docs/scenes.md), as Fig. 9
+    does in rooms and woods."""
+    scan: Literal["auto", "own", "plane"] = "auto"
+    """The range scan a trained run reads: auto shows a run trained on the open plane the
+    plane's scan (every ray at its cap) in any scene, as Fig. 9 does (its normaliser never
+    saw a wall); own feeds it the scene's scan; plane forces the plane's."""
     json: bool = False
-    """Print one JSON object {"rows": [...], "world_changes": {...}} instead of a table."""
+    """Print one JSON object {"rows": [...], "world_changes": {...}, "deployment": {...}}
+    instead of a table."""
     world: WorldCfg = WorldCfg()
     """The simulated world: a run's training world, with any --world.* flag on top of it
     (baselines: the library default)."""
@@ -77,6 +86,24 @@ def run_eval(cmd: EvalCmd) -> dict:
         cmd.method, cmd.world, cmd.as_method, cmd.predictor
     )
     world = validate_world(cmd.world.with_behavior(cmd.behavior))
+    from dyncatch.policies.blend import deploy
+
+    if trained_world is None and cmd.scan != "auto":
+        raise ValueError("--scan applies to trained runs; a baseline reads no scan")
+    policy = deploy(
+        policy, trained_world, world, cmd.blend, None if cmd.scan == "auto" else cmd.scan
+    )
+    from dyncatch.policies.blend import Blended, PlaneScan
+
+    inner = policy.catch if isinstance(policy, Blended) else policy
+    deployment = {
+        "blend": cmd.blend,
+        "scan": None
+        if trained_world is None
+        else "plane"
+        if isinstance(inner, PlaneScan)
+        else "own",
+    }
     # Speeds are set per row, so they are no change of world.
     changes = {}
     if trained_world is not None:
@@ -85,11 +112,17 @@ def run_eval(cmd: EvalCmd) -> dict:
     rows = evaluate_speeds(
         policy, world, cmd.behavior, cmd.speeds, cmd.episodes, cmd.seed, method, cmd.backend
     )
-    result = {"rows": rows, "world_changes": {k: list(v) for k, v in changes.items()}}
+    result = {
+        "rows": rows,
+        "world_changes": {k: list(v) for k, v in changes.items()},
+        "deployment": deployment,
+    }
     if cmd.json:
         print(json.dumps(result))
         return result
     print(f"{method} vs {cmd.behavior}, {cmd.episodes} episodes per speed ({cmd.backend})")
+    if cmd.blend or deployment["scan"] == "plane":
+        print(f"deployed with blend={cmd.blend}, scan={deployment['scan']} (docs/scenes.md)")
     if changes:
         shown = ", ".join(f"{k} {a} -> {b}" for k, (a, b) in changes.items())
         print(f"evaluated in another world than it was trained in: {shown}")

@@ -204,3 +204,26 @@ def plane_scan(catch, world: WorldCfg) -> PlaneScan:
     """``catch`` reading the open plane's scan (capped at ``world.scene.scan_range_m``)."""
     pytree = getattr(catch, "is_pytree_policy", False)
     return PlaneScan(catch, world.scene.scan_range_m, is_pytree_policy=pytree)
+
+
+def reads_nothing(world: WorldCfg) -> bool:
+    """Whether the range scan of ``world``'s scene always reads its cap (no walls, no
+    obstacles: the open plane)."""
+    from dyncatch.sim.scenes import get_scene
+
+    scene = get_scene(world.scene.name)
+    return not scene.walls and scene.layout is None
+
+
+def deploy(policy, trained_world: WorldCfg | None, world: WorldCfg, blend: bool = False, scan=None):
+    """A policy as deployed in ``world``: a learned one (``trained_world`` given) trained
+    where its scan read nothing, deployed where it reads something, is shown the plane's
+    scan (``plane_scan``) unless ``scan`` says ``"own"`` (``"plane"`` forces that view,
+    ``None`` decides by the scenes); then eq. 10's blend if ``blend``. Fig. 9 and
+    ``dyncatch eval`` deploy this way."""
+    if scan not in (None, "own", "plane"):
+        raise ValueError(f"scan must be None, 'own' or 'plane', got {scan!r}")
+    auto = trained_world is not None and reads_nothing(trained_world) and not reads_nothing(world)
+    if scan == "plane" or (scan is None and auto):
+        policy = plane_scan(policy, world)
+    return blended(policy, world) if blend else policy

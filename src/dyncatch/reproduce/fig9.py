@@ -107,20 +107,15 @@ def deployed(plan: Plan, out: Path, scene: str, behavior: str, row: Fig9Row, see
     """(policy, world) of a row in a scene: the plane-trained policy (or the baseline),
     blended if the row says so. A policy trained where the scan reads nothing (no walls,
     no obstacles) is shown that scan (``policies.blend.plane_scan``)."""
-    from dyncatch.policies.blend import blended, plane_scan
-    from dyncatch.sim.scenes import get_scene
+    from dyncatch.policies.blend import deploy
 
     policy, trained_world = load_policy(plan, out, behavior, row.policy, seed)
     world = scene_world(trained_world, scene, behavior, plan)
     if not row.learned:  # a baseline is built for the world it plays in
         from dyncatch.policies.registry import BASELINES
 
-        policy = BASELINES[row.policy](world)
-    else:
-        trained_in = get_scene(trained_world.scene.name)
-        if not trained_in.walls and trained_in.layout is None:
-            policy = plane_scan(policy, world)
-    return (blended(policy, world) if row.blend else policy), world
+        return deploy(BASELINES[row.policy](world), None, world, row.blend), world
+    return deploy(policy, trained_world, world, row.blend), world
 
 
 def cell_path(out: Path, scene: str, behavior: str, row: str, seed) -> Path:
