@@ -87,6 +87,30 @@ class TestCatchEnvRender:
         expected = pixel_of(np.asarray(world_xy), env.world, size_px, robot)
         np.testing.assert_allclose([cols.mean(), rows.mean()], expected, atol=2.0)
 
+    def test_a_room_frame_draws_the_scan_and_occlusion_as_the_videos_do(self):
+        from dyncatch.sim.env import observe
+        from dyncatch.viz.trajectory import scene_extras
+
+        world = WorldCfg().for_scene("room_8")
+        env = CatchEnv(world=world, render_mode="rgb_array", render_size_px=SIZE_PX)
+        env.reset(seed=5)
+        extras = scene_extras(env.world)
+
+        def row(state):
+            return {**host_row(state), **jax.device_get(extras(state, observe(state, env.world)))}
+
+        rows = [row(env.state)]
+        for _ in range(3):
+            env.step(ACTION)
+            rows.append(row(env.state))
+        assert rows[-1]["scan_m"].shape == (world.scene.scan_rays,)
+        frame = env.render()
+        reference = render_frames(as_traj(rows, env.world.episode.dt_s), env.world, 1, SIZE_PX)
+        np.testing.assert_array_equal(frame, reference[-1])
+        bare = [{k: v for k, v in r.items() if k not in ("scan_m", "occluded")} for r in rows]
+        without = render_frames(as_traj(bare, env.world.episode.dt_s), env.world, 1, SIZE_PX)
+        assert not np.array_equal(frame, without[-1])  # the rays are drawn
+
     def test_no_render_mode_renders_nothing(self):
         with pytest.warns(UserWarning, match="render_mode"):
             assert CatchEnv().render() is None

@@ -35,6 +35,25 @@ def render_metadata(world: WorldCfg) -> dict:
     return {"render_modes": list(RENDER_MODES), "render_fps": world.episode.control_hz}
 
 
+def _row_fns(world: WorldCfg):
+    """(one state -> row, batched state -> rows): the drawn values; in a scene whose scan
+    can read something, also the range scan and occluded sightings (``scene_extras``), as
+    the reproduction's videos draw them."""
+    from dyncatch.policies.blend import reads_nothing
+
+    if reads_nothing(world):
+        return _state_row, _state_row
+    from dyncatch.sim.env import observe
+    from dyncatch.viz.trajectory import scene_extras
+
+    extras = scene_extras(world)
+
+    def row(state):
+        return {**state_row(state), **extras(state, observe(state, world))}
+
+    return jax.jit(row), jax.jit(jax.vmap(row))
+
+
 class StateFrames:
     """Draws an adapter's current state, one environment or a batch.
 
@@ -61,6 +80,7 @@ class StateFrames:
 
         if world != self.world:
             self._drawer = None
+            self._row, self._rows = _row_fns(world)
         self.world = world
         self.span = trail_rows(world)
         self._trail: deque[np.ndarray] = deque(maxlen=self.span + 1)
@@ -80,7 +100,8 @@ class StateFrames:
         if self._drawer is None:
             from dyncatch.viz.render import TopDownDrawer
 
-            self._drawer = TopDownDrawer(self.world, self.size_px)
+            with_scan = self._row is not _state_row  # the row carries the scan
+            self._drawer = TopDownDrawer(self.world, self.size_px, with_scan=with_scan)
         row["time_s"] = float(row["step"]) * self.world.episode.dt_s
         # The positions of this episode only: after an auto-reset the older ones are another's.
         keep = min(int(row["step"]), self.span) + 1
@@ -88,12 +109,12 @@ class StateFrames:
 
     def frame(self, state) -> np.ndarray:
         """(size_px, size_px, 3) uint8 of one environment's state."""
-        row = jax.device_get(_state_row(state))
+        row = jax.device_get(self._row(state))
         return self._draw(row, np.stack(self._trail))
 
     def frames(self, state) -> tuple[np.ndarray, ...]:
         """One (size_px, size_px, 3) uint8 frame per environment of a batched state."""
-        rows = jax.device_get(_state_row(state))
+        rows = jax.device_get(self._rows(state))
         trail = np.stack(self._trail)  # (K, num_envs, 2)
         num_envs = len(rows["step"])
         return tuple(
