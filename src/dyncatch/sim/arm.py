@@ -21,9 +21,10 @@ IK_COMPACT_FRACTIONS = (1 / 64, 1 / 8)
 """Under ``vmap`` the IK runs on a compact sub-batch of the active environments, 1/64 or 1/8
 of the batch, whichever holds them all, or on the whole batch when more are active
 (``sim.gate``). Results do not depend on it (``()`` turns the gate off), so it is a constant
-rather than a config field, which would enter checkpoint headers and cache keys. Where the
-values come from (the share of active arms under random and pursuing commands, and the cost
-of each size) is in docs/performance.md."""
+rather than a config field, which would enter checkpoint headers and cache keys. The sizes:
+arms are active in 0.03 % of environments under random commands (1/64 holds them) and in
+4-5 % under the pursuit baseline, at most 7.5 % at any step (1/8 holds them); the IK's cost
+grows with the rows it solves (docs/performance.md)."""
 
 
 def _chain(q: jax.Array, cfg: ArmCfg):
