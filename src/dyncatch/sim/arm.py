@@ -23,7 +23,7 @@ of the batch, whichever holds them all, or on the whole batch when more are acti
 (``sim.gate``). Results do not depend on it (``()`` turns the gate off), so it is a constant
 rather than a config field, which would enter checkpoint headers and cache keys. The sizes:
 arms are active in 0.03 % of environments under random commands (1/64 holds them) and in
-4-5 % under the pursuit baseline, at most 7.5 % at any step (1/8 holds them); the IK's cost
+4-5.5 % under the pursuit baseline, at most 7.5 % at any step (1/8 holds them); the IK's cost
 grows with the rows it solves (docs/performance.md)."""
 
 
