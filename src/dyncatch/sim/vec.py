@@ -8,27 +8,57 @@ run ``vmap``-ed over seeds.
 
 from __future__ import annotations
 
+from functools import partial
+
 import jax
 import jax.numpy as jnp
 
 from dyncatch.sim.api import Environment
+from dyncatch.sim.gate import where_active
 
 _RESET_STREAM = 1
+RESET_COMPACT_FRACTIONS = (1 / 64, 1 / 8)
+"""Under ``vmap`` fresh episodes are computed only for the environments that are done, on a
+compact sub-batch of 1/64 or 1/8 of the batch, or the whole batch when more are done
+(``sim.gate``; ``()`` computes them everywhere). An episode ends in well under 1 % of
+environment steps, but all at once when a batch started together times out."""
 
 
 def _select(pred: jax.Array, on_true, on_false):
     return jax.tree.map(lambda a, b: jnp.where(pred, a, b), on_true, on_false)
 
 
+def _fresh_episode(key_data: jax.Array, env: Environment, impl):
+    """A new episode and its first observation, with keys as raw data (``sim.gate``
+    scatters plain arrays)."""
+    state = env.reset(jax.random.wrap_key_data(key_data, impl=impl))
+    return jax.tree.map(_key_data, state), env.observe(state)
+
+
+def _is_key(x) -> bool:
+    return jax.dtypes.issubdtype(x.dtype, jax.dtypes.prng_key)
+
+
+def _key_data(x):
+    return jax.random.key_data(x) if _is_key(x) else x
+
+
+def _rewrap_key(x, like):
+    return jax.random.wrap_key_data(x, impl=jax.random.key_impl(like)) if _is_key(like) else x
+
+
 def auto_reset_step_with_final(state, action, env: Environment):
     """``auto_reset_step`` that also returns the finished episode's last state (the state
     after the step, before any reset), for inputs with a carry (``rl.methods.MethodObs``)."""
     next_state, obs, reward, done, info = env.step(state, action)
-    fresh = env.reset(jax.random.fold_in(next_state.key, _RESET_STREAM))
+    key = jax.random.key_data(jax.random.fold_in(next_state.key, _RESET_STREAM))
+    fresh_episode = partial(_fresh_episode, impl=jax.random.key_impl(next_state.key))
+    fresh, fresh_obs = where_active(fresh_episode, RESET_COMPACT_FRACTIONS)(done, key, env)
+    fresh = jax.tree.map(_rewrap_key, fresh, next_state)
     info["final_obs"] = obs
     return (
         _select(done, fresh, next_state),
-        _select(done, env.observe(fresh), obs),
+        _select(done, fresh_obs, obs),
         reward,
         done,
         info,

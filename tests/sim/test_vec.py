@@ -1,0 +1,70 @@
+"""Auto-reset (``sim.vec``): fresh episodes computed only where one ended equal the ungated
+reset computed everywhere."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from dyncatch.sim import vec
+from dyncatch.sim.api import JaxCatchEnv
+from dyncatch.sim.config import WorldCfg
+
+ENV = JaxCatchEnv(WorldCfg())
+N = 256
+
+
+def _ending(count: int, key: jax.Array | None = None):
+    """A batch of N fresh episodes of which ``count`` time out on the next step."""
+    state = vec.batch_reset(jax.random.key(0) if key is None else key, ENV, N)
+    last = ENV.world.episode.max_steps - 1
+    ends = jnp.zeros(N, bool).at[jax.random.permutation(jax.random.key(1), N)[:count]].set(True)
+    return state.replace(step=jnp.where(ends, last, 5)), ends
+
+
+def _leaves(tree):
+    return [
+        jax.random.key_data(x) if jax.dtypes.issubdtype(x.dtype, jax.dtypes.prng_key) else x
+        for x in jax.tree.leaves(tree)
+    ]
+
+
+def _step(state, actions):
+    # A fresh function each time, so the fractions are read when it is traced.
+    return jax.jit(lambda s, a, e: vec.batch_step_with_final(s, a, e))(state, actions, ENV)
+
+
+def _switches(state, actions) -> int:
+    """Conds in the traced batched step: one per gate (the 4 arm sub-steps, the reset)."""
+    return str(jax.make_jaxpr(lambda s, a: vec.batch_step(s, a, ENV))(state, actions)).count(
+        "cond["
+    )
+
+
+# With 256 environments the sub-batches have 4 and 32 rows: 0 and 3 ending fit the first,
+# 20 the second, 100 and all of them need the whole batch.
+@pytest.mark.parametrize("count", [0, 3, 20, 100, N])
+def test_gated_auto_reset_equals_the_ungated_one(monkeypatch, count):
+    state, ends = _ending(count)
+    actions = jax.random.uniform(jax.random.key(2), (N, 3), minval=-1.0, maxval=1.0)
+    gated, switches = _step(state, actions), _switches(state, actions)
+    monkeypatch.setattr(vec, "RESET_COMPACT_FRACTIONS", ())
+    ungated = _step(state, actions)
+    assert _switches(state, actions) == switches - 1  # the reset's gate is gone
+    np.testing.assert_array_equal(gated[3], ends)
+    for a, b in zip(_leaves(gated), _leaves(ungated), strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert bool(jnp.all(jnp.where(ends, gated[0].step == 0, gated[0].step == 6)))
+
+
+def test_nested_vmap_over_seeds(monkeypatch):
+    # Two seeds of 256 environments fold into one batch of 512 (sub-batches of 8 and 64).
+    states, ends = jax.vmap(lambda k: _ending(10, k))(jax.random.split(jax.random.key(3), 2))
+    actions = jnp.zeros((2, N, 3))
+    run = jax.vmap(vec.batch_step, in_axes=(0, 0, None))
+    gated = jax.jit(lambda s, a, e: run(s, a, e))(states, actions, ENV)
+    monkeypatch.setattr(vec, "RESET_COMPACT_FRACTIONS", ())
+    ungated = jax.jit(lambda s, a, e: run(s, a, e))(states, actions, ENV)
+    np.testing.assert_array_equal(gated[3], ends)
+    for a, b in zip(_leaves(gated), _leaves(ungated), strict=True):
+        np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-5)
