@@ -152,7 +152,7 @@ def test_a_time_out_bootstraps_from_the_input_at_its_own_episodes_end():
     auto-reset put in its place."""
     from dyncatch.rl.train import step_with_final_input
     from dyncatch.sim.api import as_env
-    from dyncatch.sim.vec import batch_observe, batch_reset
+    from dyncatch.sim.vec import batch_reset
 
     world = WORLD.replace(episode=WORLD.episode.replace(duration_s=0.1))  # 5 steps
     e = as_env(world)
