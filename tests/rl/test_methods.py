@@ -144,3 +144,31 @@ def test_a_tracker_policy_resets_its_carry_at_episode_start_inside_the_auto_rese
     valid = np.asarray(ts.obs_carry.valid)[live]
     assert not valid[:, 1:].any()
     np.testing.assert_array_equal(valid[:, 0], np.asarray(ts.env_state.sensor.ever_seen)[live])
+
+
+def test_a_time_out_bootstraps_from_the_input_at_its_own_episodes_end():
+    """gt_rl reads the target's true velocity from the state: the input PPO bootstraps a
+    time-out from is the one at the finished episode's last state, not at the state the
+    auto-reset put in its place."""
+    from dyncatch.rl.train import step_with_final_input
+    from dyncatch.sim.api import as_env
+    from dyncatch.sim.vec import batch_reset
+
+    world = WORLD.replace(episode=WORLD.episode.replace(duration_s=0.1))  # 5 steps
+    e = as_env(world)
+    f = method_obs("gt_rl")
+    vstep, vinit = jax.vmap(f.step), jax.vmap(f.init_carry)
+    action = jnp.zeros((2, 3))
+    state = batch_reset(jax.random.key(1), e, 2)
+    carry = vinit(state)
+    move = jax.jit(lambda s, c: step_with_final_input(e, vstep, vinit, s, action, c))
+    for _ in range(5):
+        before = state
+        state, _, _, done, info, final_x, carry = move(state, carry)
+    assert bool(info["truncated"].all()) and bool(done.all())
+    for i in range(2):  # the same last step, by hand, without the auto-reset
+        one = jax.tree.map(lambda a, i=i: a[i], before)
+        end_state, end_obs, *_ = e.step(one, action[i])
+        np.testing.assert_allclose(final_x[i], f(end_state, end_obs), rtol=1e-6, atol=1e-6)
+        restarted = jax.tree.map(lambda a, i=i: a[i], state)
+        assert not np.allclose(final_x[i], f(restarted, end_obs))  # what the bug read

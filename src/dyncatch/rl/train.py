@@ -34,7 +34,7 @@ from dyncatch.rl.normalize import RunningNorm
 from dyncatch.sim.api import Environment, as_env
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.state import EnvState, Obs
-from dyncatch.sim.vec import batch_observe, batch_reset, batch_step, batch_step_with_final
+from dyncatch.sim.vec import batch_observe, batch_reset, batch_step_with_final
 
 ObsFn = Callable[[EnvState, Obs], jax.Array]
 """(state, obs) of one environment -> the policy's input vector (D,)."""
@@ -123,6 +123,25 @@ def batch_constraint(mesh: Mesh | None) -> Callable[[jax.Array, int], jax.Array]
     return constrain
 
 
+def step_with_final_input(env: Environment, vstep, vinit, env_state, action, obs_carry):
+    """The batched auto-reset step; the policy input at each finished episode's last state
+    (for time-out bootstrapping: taken with the pre-reset state, so a method that reads the
+    state, as the predictors and the oracle do, sees its own episode's end, not the next
+    episode's start); and the carry of the next step (a fresh one where an episode began).
+
+    ``vstep``/``vinit``: the method's ``step``/``init_carry`` vmapped over the batch.
+    Returns (state, obs, reward, done, info, final input, carry)."""
+    next_state, next_obs, reward, done, info, final_state = batch_step_with_final(
+        env_state, action, env
+    )
+    _, final_x = vstep(obs_carry, final_state, info["final_obs"])
+    fresh = vinit(next_state)
+    obs_carry = jax.tree.map(
+        lambda a, b: jnp.where(done.reshape(-1, *[1] * (a.ndim - 1)), a, b), fresh, obs_carry
+    )
+    return next_state, next_obs, reward, done, info, final_x, obs_carry
+
+
 def make_train(
     env: Environment | WorldCfg, ppo: PPOCfg, obs_fn: ObsFn = flat_obs, mesh: Mesh | None = None
 ):
@@ -162,26 +181,7 @@ def make_train(
         )
 
     def env_step(env_state, action, obs_carry):
-        """The batched auto-reset step, and the input at each finished episode's end and
-        the carry of the next step (a fresh one where an episode started)."""
-        if not stepper.stateful:
-            next_state, next_obs, reward, done, info = batch_step(env_state, action, env)
-            # As before the carry existed, bit for bit: the input is taken with the state
-            # after the reset (a frame predictor reads the new episode's sensor there).
-            _, final_x = vstep(obs_carry, next_state, info["final_obs"])
-            return next_state, next_obs, reward, done, info, final_x, obs_carry
-        next_state, next_obs, reward, done, info, final_state = batch_step_with_final(
-            env_state, action, env
-        )
-        ended_carry, final_x = vstep(obs_carry, final_state, info["final_obs"])
-        del ended_carry  # the input at the end needs the carry; the next step starts afresh
-        fresh = vinit(next_state)
-        obs_carry = jax.tree.map(
-            lambda a, b: jnp.where(done.reshape(-1, *[1] * (a.ndim - 1)), a, b),
-            fresh,
-            obs_carry,
-        )
-        return next_state, next_obs, reward, done, info, final_x, obs_carry
+        return step_with_final_input(env, vstep, vinit, env_state, action, obs_carry)
 
     def rollout(ts: TrainState):
         def step(carry, key):
