@@ -112,6 +112,24 @@ assert "all-reduce" in iterate.lower(ts).compile().as_text()
 
 
 @pytest.mark.extended  # a cold 2-device process (50 s); sharded code runs on 1 device everywhere
+def test_a_run_resumed_at_its_end_reports_its_last_metrics(runs):
+    """Nothing is left to train: the final metrics (reproduce's done.json) are the last
+    logged row, for a group and for a single run, and no row is added."""
+    from dyncatch.cli.main import parse
+    from dyncatch.rl.runner import make_runner
+
+    group, single = runs
+    for out, extra in ((group, ["--seeds", "2", "--seed", "3"]), (single, ["--seed", "4"])):
+        argv = ["train", *TINY, *extra, "--total-steps", "256", "--out", str(out), "--resume"]
+        got = make_runner(parse(argv)[1]).learn()
+        dirs = [out / "seed3", out / "seed4"] if out == group else [out]
+        finals = got if out == group else [got]
+        for d, final in zip(dirs, finals, strict=True):
+            last = _rows(d)[-1]
+            assert len(_rows(d)) == 2 and final
+            assert final == {k: float(v) for k, v in last.items() if v}
+
+
 def test_two_devices_give_the_metrics_of_one(runs, tmp_path):
     """The environment batch and the PPO minibatches split over 2 (forced host) devices:
     the same runs to float tolerance (only the order of the cross-device sums differs)."""

@@ -48,11 +48,15 @@ class CsvLogger:
 
     def last(self, name: str) -> float | None:
         """The last logged value of a column, if any."""
+        return self.last_row().get(name)
+
+    def last_row(self) -> dict[str, float]:
+        """The last logged row, its empty cells left out ({} before the first row)."""
         if not self.path.exists():
-            return None
+            return {}
         with self.path.open() as f:
             rows = list(csv.DictReader(f))
-        return float(rows[-1][name]) if rows and rows[-1].get(name) else None
+        return {k: float(v) for k, v in rows[-1].items() if v} if rows else {}
 
     def _rewrite(self, rows: list[dict]) -> None:
         if not rows:
@@ -183,6 +187,11 @@ class MetricLog:
         csv_log = self.loggers.get("csv")
         value = csv_log.last(name) if isinstance(csv_log, CsvLogger) else None
         return default if value is None else value
+
+    def last_row(self) -> dict[str, float]:
+        """The last logged row of ``metrics.csv`` ({} without one, or without csv)."""
+        csv_log = self.loggers.get("csv")
+        return csv_log.last_row() if isinstance(csv_log, CsvLogger) else {}
 
     def write(self, iteration: int, env_steps: int, metrics: Metrics) -> None:
         for logger in self.loggers.values():

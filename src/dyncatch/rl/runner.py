@@ -243,7 +243,8 @@ class TrainRunner:
             f"{cfg.method} vs {cfg.behavior}", total_iters, start
         )
         update(start, "compiling")
-        metrics: dict[str, float] = {}
+        # A run resumed at its end trains nothing: its final metrics are the last logged.
+        metrics: dict[str, float] = log.last_row() if start >= total_iters else {}
         # Wall-clock seconds of training (compilation included, evaluations excluded),
         # continued across resumes.
         clock0 = time.perf_counter() - log.last("time_s")

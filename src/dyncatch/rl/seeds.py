@@ -133,7 +133,9 @@ class SeedGroupRunner:
             start,
         )
         update(start, "compiling")
-        metrics: list[dict[str, float]] = [{} for _ in runners]
+        # Runs resumed at their end train nothing: their final metrics are the last logged.
+        done = start >= total_iters
+        metrics: list[dict[str, float]] = [log.last_row() if done else {} for log in logs]
         # Each run's wall clock (compilation included, evaluations excluded), continued
         # across resumes: the group's clock, so every seed counts the whole group's time.
         clock0 = [time.perf_counter() - log.last("time_s") for log in logs]
