@@ -81,6 +81,18 @@ def test_arm_joint_limits_and_torques_are_the_configs(built):
     np.testing.assert_allclose(model.actuator_forcerange[idx.arm_ctrl, 1], CFG.z1.max_torque_nm)
 
 
+def test_arm_servos_are_the_z1_pd_run_implicitly(built):
+    model, idx, _ = built
+    np.testing.assert_allclose(model.actuator_gainprm[idx.arm_ctrl, 0], CFG.z1.kp_nm_per_rad)
+    np.testing.assert_allclose(
+        model.actuator_biasprm[idx.arm_ctrl, 1], -np.array(CFG.z1.kp_nm_per_rad)
+    )
+    np.testing.assert_allclose(
+        model.actuator_biasprm[idx.arm_ctrl, 2], -np.array(CFG.z1.kd_nms_per_rad)
+    )
+    assert model.opt.integrator == mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+
+
 def test_leg_kinematics_match_mujoco_and_invert(built):
     model, idx, data = built
     rng = np.random.default_rng(1)

@@ -33,9 +33,10 @@ def limit_step(
 
 def _brake(dq: np.ndarray, max_accel_rps2: float, dt_s: float) -> np.ndarray:
     """The step toward a joint change ``dq`` (6,) at no more than the fastest rate from which
-    the acceleration bound still stops there (sqrt(2 a |dq|)): without it the bounded
-    deceleration overshoots and the targets ring around the goal."""
-    v_stop = np.sqrt(2.0 * max_accel_rps2 * np.abs(dq))
+    the acceleration bound still stops there in steps of ``dt_s`` (v^2 / 2a + v dt / 2 <= |dq|):
+    without it the bounded deceleration overshoots and the targets ring around the goal."""
+    half = 0.5 * max_accel_rps2 * dt_s
+    v_stop = np.sqrt(half**2 + 2.0 * max_accel_rps2 * np.abs(dq)) - half
     return np.sign(dq) * np.minimum(v_stop * dt_s, np.abs(dq))
 
 
