@@ -1,8 +1,11 @@
 """What the full body does while the arm reaches: the measurements behind docs/fullbody.md's falls.
 
-``python benchmarks/fullbody_falls.py [--episodes N] [--speed-mps V] [--stowed] [--fullbody.*]``
-plays the pursuit baseline against the reactive target on the full body
-(``run_fullbody_episodes``, the code ``dyncatch eval --backend mujoco`` runs) and probes every
+``python benchmarks/fullbody_falls.py [--policy RUN_OR_BASELINE [--predictor CKPT]]
+[--episodes N] [--speed-mps V] [--duration-s T] [--stowed] [--fullbody.*]`` plays a policy
+(pursuit by default, or a trained run in its training world) against the reactive target on
+the full body (``run_fullbody_episodes``, the code ``dyncatch eval --backend mujoco`` runs;
+with ``--eval-key`` the key ``dyncatch eval --speeds V --episodes N --seed S`` uses, so the
+episodes are that command's) and probes every
 200 Hz control period: the trunk's roll and pitch, the arm's joint speeds and torques against
 their limits, the arm's centre of mass in the trunk frame and the wrench the arm puts on the
 trunk (MuJoCo's ``cfrc_int`` of the arm's first link, less the arm's weight: its dynamic
@@ -20,6 +23,8 @@ import jax
 import numpy as np
 import tyro
 
+from dyncatch.evaluation.grid import EVAL_STREAM
+from dyncatch.evaluation.resolve import resolve_policy
 from dyncatch.fullbody.catch import run_fullbody_episodes
 from dyncatch.fullbody.config import FullBodyCfg
 from dyncatch.policies.registry import BASELINES
@@ -38,6 +43,13 @@ class FallsCmd:
     duration_s: float = 10.0
     """Episode limit."""
     seed: int = 0
+    policy: str = "pursuit"
+    """A baseline's name or a trained run's folder."""
+    predictor: str | None = None
+    """Predictor checkpoint for a run (as ``dyncatch eval --predictor``)."""
+    eval_key: bool = False
+    """Use ``dyncatch eval``'s key for a single speed (``evaluation.grid``), not
+    ``jax.random.key(seed)``."""
     stowed: bool = False
     """Keep the arm stowed (activation distance 0.01 m): no catch, the trot alone."""
     fullbody: FullBodyCfg = FullBodyCfg()
@@ -173,17 +185,30 @@ def summarise(probe: Probe, fell: np.ndarray, success: np.ndarray) -> dict:
 
 
 def main(cmd: FallsCmd) -> dict:
-    world = WorldCfg().with_speed(cmd.speed_mps)
+    policy, method, trained = resolve_policy(cmd.policy, WorldCfg(), None, cmd.predictor)
+    world = (WorldCfg() if trained is None else trained).with_behavior("reactive")
+    world = world.with_speed(cmd.speed_mps)
     world = world.replace(episode=world.episode.replace(duration_s=cmd.duration_s))
     if cmd.stowed:
         world = world.replace(arm=world.arm.replace(activation_distance_m=0.01))
+    if trained is None:
+        policy = BASELINES[cmd.policy](world)
     fullbody = dataclasses.replace(cmd.fullbody, arm=world.arm)
     probe = Probe(world.arm.max_joint_vel_rps, np.asarray(fullbody.z1.max_torque_nm))
-    policy = BASELINES["pursuit"](world)
-    out = run_fullbody_episodes(
-        policy, jax.random.key(cmd.seed), world, cmd.episodes, fullbody, probe=probe
+    key = jax.random.key(cmd.seed)
+    if cmd.eval_key:
+        key = jax.random.fold_in(jax.random.fold_in(key, EVAL_STREAM), 0)
+    out = run_fullbody_episodes(policy, key, world, cmd.episodes, fullbody, probe=probe)
+    result = {"policy": method, **summarise(probe, out["fell"], out["success"])}
+    ok = out["success"]
+    result["catch_time_of_catches_s"] = (
+        round(float(out["catch_time_s"][ok].mean()), 2) if ok.any() else None
     )
-    result = summarise(probe, out["fell"], out["success"])
+    result["per_episode"] = {
+        "success": ok.astype(int).tolist(),
+        "fell": out["fell"].astype(int).tolist(),
+        "catch_time_s": np.round(out["catch_time_s"], 2).tolist(),
+    }
     result["wall_s"] = round(out["wall_s"], 1)
     result["cpu_s"] = round(out["cpu_s"], 1)
     print(json.dumps(result))
