@@ -73,6 +73,9 @@ class Probe:
         "dyn_my_nm",
         "dyn_mz_nm",
         "dyn_f_n",
+        "speed_mps",
+        "yaw_rate_rps",
+        "reach_err_m",
     )
 
     def __init__(self, vel_limit_rps: float, torque_limit_nm: np.ndarray):
@@ -103,6 +106,7 @@ class Probe:
         arm_b = rot.T @ (arm_com - d.xpos[idx.base_body])
         qd = d.qvel[idx.arm_dof]
         tau = d.actuator_force[idx.arm_ctrl]
+        vel = env.base_velocity_heading()
         self.rows[i].append(
             (
                 env.time_s,
@@ -116,6 +120,9 @@ class Probe:
                 arm_b[0],
                 *dyn_m,
                 np.linalg.norm(dyn_f),
+                np.hypot(*vel[:2]),
+                vel[2],
+                np.inf if goal is None else np.linalg.norm(env.gripper_m() - goal),
             )
         )
 
@@ -162,6 +169,9 @@ def summarise(probe: Probe, fell: np.ndarray, success: np.ndarray) -> dict:
             "arm_dyn_pitch_moment_p99_nm": pct(cat["dyn_my_nm"][sel], 99),
             "arm_dyn_yaw_moment_p99_nm": pct(cat["dyn_mz_nm"][sel], 99),
             "arm_dyn_force_p99_n": pct(cat["dyn_f_n"][sel], 99),
+            "speed_p50_mps": pct(cat["speed_mps"][sel], 50),
+            "gripper_to_goal_p50_m": pct(cat["reach_err_m"][sel], 50),
+            "yaw_rate_p90_rps": pct(cat["yaw_rate_rps"][sel], 90),
         }
     falls = []
     for i in np.flatnonzero(fell):
@@ -178,6 +188,10 @@ def summarise(probe: Probe, fell: np.ndarray, success: np.ndarray) -> dict:
                 "roll_at_fall_rad": round(float(p["roll_rad"][-1]), 2),
                 "pitch_at_fall_rad": round(float(p["pitch_rad"][-1]), 2),
                 "arm_com_lateral_last_1s_mean_m": round(float(p["arm_com_y_m"][last].mean()), 3),
+                "speed_last_1s_mean_mps": round(float(p["speed_mps"][last].mean()), 2),
+                "abs_yaw_rate_last_1s_mean_rps": round(
+                    float(np.abs(p["yaw_rate_rps"][last]).mean()), 2
+                ),
             }
         )
     out["falls"] = falls
@@ -204,6 +218,18 @@ def main(cmd: FallsCmd) -> dict:
     result["catch_time_of_catches_s"] = (
         round(float(out["catch_time_s"][ok].mean()), 2) if ok.any() else None
     )
+    # The closest the gripper came to its goal (the target's centre, catch_offset_m up) in
+    # each episode that reached; a catch needs catch_radius_m (5 cm).
+    closest = [
+        float(np.min(probe.arrays(i)["reach_err_m"]))
+        for i in range(cmd.episodes)
+        if np.isfinite(probe.arrays(i)["reach_err_m"]).any()
+    ]
+    result["closest_gripper_to_goal_m"] = {
+        "episodes_reaching": len(closest),
+        "under_5cm": int(np.sum(np.array(closest) < 0.05)),
+        "p50": round(float(np.median(closest)), 3) if closest else None,
+    }
     result["per_episode"] = {
         "success": ok.astype(int).tolist(),
         "fell": out["fell"].astype(int).tolist(),
