@@ -17,6 +17,8 @@ FIELDS = [
 
 
 def _fmt(v):
+    if isinstance(v, bool | str):
+        return str(v)
     if isinstance(v, tuple):
         return "(" + ", ".join(f"{x:g}" for x in v) + ")"
     return f"{v:g}"

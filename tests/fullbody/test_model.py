@@ -78,7 +78,19 @@ def test_arm_joint_limits_and_torques_are_the_configs(built):
     rng = model.jnt_range[[model.joint(f"arm_joint{i}").id for i in range(1, 7)]]
     np.testing.assert_allclose(rng[:, 0], CFG.arm.joint_min_rad)
     np.testing.assert_allclose(rng[:, 1], CFG.arm.joint_max_rad)
-    np.testing.assert_allclose(model.actuator_ctrlrange[idx.arm_ctrl, 1], CFG.z1.max_torque_nm)
+    np.testing.assert_allclose(model.actuator_forcerange[idx.arm_ctrl, 1], CFG.z1.max_torque_nm)
+
+
+def test_arm_servos_are_the_z1_pd_run_implicitly(built):
+    model, idx, _ = built
+    np.testing.assert_allclose(model.actuator_gainprm[idx.arm_ctrl, 0], CFG.z1.kp_nm_per_rad)
+    np.testing.assert_allclose(
+        model.actuator_biasprm[idx.arm_ctrl, 1], -np.array(CFG.z1.kp_nm_per_rad)
+    )
+    np.testing.assert_allclose(
+        model.actuator_biasprm[idx.arm_ctrl, 2], -np.array(CFG.z1.kd_nms_per_rad)
+    )
+    assert model.opt.integrator == mujoco.mjtIntegrator.mjINT_IMPLICITFAST
 
 
 def test_leg_kinematics_match_mujoco_and_invert(built):

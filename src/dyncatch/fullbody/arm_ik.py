@@ -4,7 +4,8 @@
 Jacobian and ``e`` its error, both in the world frame (the DLS step is invariant to a common
 rotation). The result moves the PD *targets* of the arm: the joints follow under PD with
 gravity compensation. The step is clipped to the joint-velocity limit and the joint limits
-(``ArmCfg``), as the JAX arm does.
+(``ArmCfg``), as the JAX arm does, and its change from the last step to the joint-acceleration
+bound (``Z1Cfg.max_joint_accel_rps2``), which the kinematic JAX arm does not have.
 """
 
 from __future__ import annotations
@@ -20,26 +21,52 @@ def dls_delta(jac: np.ndarray, err: np.ndarray, damping: float, gain: float) -> 
     return jac.T @ np.linalg.solve(jjt, gain * err)
 
 
+def limit_step(
+    dq: np.ndarray, qd_prev: np.ndarray, max_vel: float, max_accel: float, dt_s: float
+) -> np.ndarray:
+    """``dq`` (6,) clipped so that its rate stays within ``max_vel`` and moves from the last
+    step's rate ``qd_prev`` (6,) by at most ``max_accel`` (per joint)."""
+    lo = np.maximum(-max_vel, qd_prev - max_accel * dt_s) * dt_s
+    hi = np.minimum(max_vel, qd_prev + max_accel * dt_s) * dt_s
+    return np.clip(dq, lo, hi)
+
+
+def _brake(dq: np.ndarray, max_accel_rps2: float, dt_s: float) -> np.ndarray:
+    """The step toward a joint change ``dq`` (6,) at no more than the fastest rate from which
+    the acceleration bound still stops there in steps of ``dt_s`` (v^2 / 2a + v dt / 2 <= |dq|):
+    without it the bounded deceleration overshoots and the targets ring around the goal."""
+    half = 0.5 * max_accel_rps2 * dt_s
+    v_stop = np.sqrt(half**2 + 2.0 * max_accel_rps2 * np.abs(dq)) - half
+    return np.sign(dq) * np.minimum(v_stop * dt_s, np.abs(dq))
+
+
 def ik_target_step(
     q_des: np.ndarray,
+    qd_prev: np.ndarray,
     jac: np.ndarray,
     gripper_m: np.ndarray,
     goal_m: np.ndarray,
     arm: ArmCfg,
     dt_s: float,
     max_step_rad: float,
+    max_accel_rps2: float,
 ) -> np.ndarray:
     """Next arm PD targets (6,) moving the gripper toward ``goal_m`` (3,) in one step.
 
-    ``jac`` (3, 6) and ``gripper_m`` (3,) are those of the commanded joints ``q_des`` (6,).
+    ``jac`` (3, 6) and ``gripper_m`` (3,) are those of the commanded joints ``q_des`` (6,);
+    ``qd_prev`` (6,) is the last step's rate of the targets.
     """
     dq = dls_delta(jac, goal_m - gripper_m, arm.ik_damping, arm.ik_gain)
-    limit = min(arm.max_joint_vel_rps * dt_s, max_step_rad)
-    q_new = q_des + np.clip(dq, -limit, limit)
+    dq = np.clip(dq, -max_step_rad, max_step_rad)
+    dq = _brake(dq, max_accel_rps2, dt_s)
+    q_new = q_des + limit_step(dq, qd_prev, arm.max_joint_vel_rps, max_accel_rps2, dt_s)
     return np.clip(q_new, arm.joint_min_rad, arm.joint_max_rad)
 
 
-def stow_target_step(q_des: np.ndarray, arm: ArmCfg, dt_s: float) -> np.ndarray:
-    """Next arm PD targets (6,) moving toward the stow pose at the joint-velocity limit."""
-    limit = arm.max_joint_vel_rps * dt_s
-    return q_des + np.clip(np.asarray(arm.stow_rad) - q_des, -limit, limit)
+def stow_target_step(
+    q_des: np.ndarray, qd_prev: np.ndarray, arm: ArmCfg, dt_s: float, max_accel_rps2: float
+) -> np.ndarray:
+    """Next arm PD targets (6,) moving toward the stow pose at up to the joint-velocity
+    limit, braking in time (per joint) so as to stop there."""
+    dq = _brake(np.asarray(arm.stow_rad) - q_des, max_accel_rps2, dt_s)
+    return q_des + limit_step(dq, qd_prev, arm.max_joint_vel_rps, max_accel_rps2, dt_s)

@@ -150,10 +150,12 @@ def _catch_error_m(gripper_m: np.ndarray, target_xyz_m: np.ndarray, world: World
     return float(np.linalg.norm(target_xyz_m - catch_point))
 
 
-def _physics(robots: _Robots, i: int, command, target_xy_m: np.ndarray, world: WorldCfg):
+def _physics(
+    robots: _Robots, i: int, command, target_xy_m: np.ndarray, world: WorldCfg, probe=None
+):
     """One control step of episode ``i``: its full body through the sub-steps while the
     target passes ``target_xy_m`` (n_sub + 1, 2) (world frame). Returns the smallest
-    catch-point error."""
+    catch-point error. ``probe(i, env, goal)``, if given, is called after each sub-step."""
     env = robots.envs[i]
     height = world.target.height_m
     best = np.inf
@@ -164,6 +166,8 @@ def _physics(robots: _Robots, i: int, command, target_xy_m: np.ndarray, world: W
         goal = target + np.array([0.0, 0.0, world.arm.catch_offset_m]) if near else None
         env.set_target(target)
         env.step(command, goal)
+        if probe is not None:
+            probe(i, env, goal)
     last = np.array([*target_xy_m[-1], height])
     env.set_target(last)
     return min(best, _catch_error_m(env.gripper_m(), last, world))
@@ -176,6 +180,7 @@ def run_fullbody_episodes(
     num_episodes: int,
     fullbody: FullBodyCfg | None = None,
     record: int | None = None,
+    probe: Callable | None = None,
 ) -> dict[str, np.ndarray]:
     """Play ``num_episodes`` episodes on the full body; the counterpart of
     ``evaluation.episodes.run_episodes`` (same key, same episodes).
@@ -185,7 +190,9 @@ def run_fullbody_episodes(
     full body, over all episodes), ``wall_s`` and ``cpu_s`` (this process's CPU time: the
     honest cost on a shared machine). ``record``: an episode's index whose full-body state
     is kept at every 50 Hz step until it ends, as ``qpos`` (T, nq) and ``target_m`` (T, 3)
-    (world frame; ``benchmarks/fullbody_video.py`` replays them).
+    (world frame; ``benchmarks/fullbody_video.py`` replays them). ``probe(i, env, goal)``:
+    called after every 200 Hz control period of episode ``i`` with its ``FullBodyEnv`` and
+    the arm's goal (None while stowed), for measurements (``benchmarks/fullbody_falls.py``).
     """
     from dyncatch.fullbody.env import FullBodyEnv
     from dyncatch.fullbody.model import build_model
@@ -226,7 +233,7 @@ def run_fullbody_episodes(
         measured = []
         for i in range(n):
             if not (done[i] or robots.fallen[i]):
-                best[i] = _physics(robots, i, command[i], target_xy[i] + origin[i], world)
+                best[i] = _physics(robots, i, command[i], target_xy[i] + origin[i], world, probe)
                 robots.fallen[i] = robots.envs[i].fallen()
                 env_steps += 1
             measured.append(robots.measure(i, origin[i]))

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Literal
 
 from dyncatch.sim.config import ArmCfg, BaseCfg
 
@@ -26,11 +27,22 @@ class Z1Cfg:
     max_torque_nm: tuple[float, ...] = (30.0, 60.0, 30.0, 30.0, 30.0, 30.0)
     """Torque limit of joints 1-6: the ``effort`` limits of Unitree's z1_description URDF
     (the shoulder, joint 2, has twice the others)."""
-    kp_nm_per_rad: float = 80.0
-    """Joint PD stiffness. Ours: stiff enough that gravity-compensated tracking errors stay
-    under a millimetre at the gripper, well inside the torque limits."""
-    kd_nms_per_rad: float = 3.0
-    """Joint PD damping. Ours: about critical for the heaviest link's reflected inertia."""
+    kp_nm_per_rad: tuple[float, ...] = (512.0, 768.0, 768.0, 512.0, 384.0, 256.0)
+    """Joint PD stiffness of joints 1-6: Unitree's defaults, z1_sdk's
+    ``LowlevelCmd::setControlGain()`` kp (20, 30, 30, 20, 15, 10) in SDK units, times 25.6,
+    the factor z1_controller's ``sim/IOROS.cpp`` applies to send them to the simulated joints
+    in N m/rad. Run implicitly by MuJoCo (``FullBodyCfg.integrator``)."""
+    kd_nms_per_rad: tuple[float, ...] = (25.6, 25.6, 25.6, 25.6, 25.6, 25.6)
+    """Joint PD damping of joints 1-6: z1_sdk's default kd (2000 in SDK units) times 0.0128,
+    z1_controller's ``sim/IOROS.cpp`` factor to N m s/rad. It damps toward the commanded
+    joint velocity (the IK's step over the control period), as the SDK's ``dq`` command."""
+    max_joint_accel_rps2: float = 30.0
+    """Bound on the commanded joint acceleration (the IK's and the stow's targets). Ours,
+    from the Z1's own figures: joint 1's 30 N m (URDF effort) over the outstretched arm's
+    inertia about it, 1.0 kg m^2 (this model's mass matrix, arm level and straight), so a
+    commanded motion is one the motors can follow. Without it the targets' rate jumps to
+    the speed limit in one step, the joints saturate and then overrun the Z1's 3.14 rad/s
+    (measured: up to 1.8-2.7 x it, docs/fullbody.md, "Falls")."""
     joint_damping_nms_per_rad: float = 0.1
     """Passive joint damping of the MJCF joints. Ours: small; the URDF's 1-2 are Gazebo
     friction stand-ins, and the PD supplies the damping."""
@@ -110,6 +122,18 @@ class GaitCfg:
     """Leg joint PD damping of a swinging leg."""
     stance_kd_nms_per_rad: float = 1.0
     """Leg joint damping added to the stance torques."""
+    com_lateral_footholds: bool = True
+    """Shift every touchdown point sideways by the COM's offset from the trunk's centre line
+    (heading frame), so the feet straddle the COM. Ours: with the arm held out sideways the
+    COM moves by up to 5 cm while both diagonals of the trot still pass under the trunk's
+    centre line, and the gravity moment about them tips the trunk toward the arm in every
+    stance (docs/fullbody.md, "Falls"). With the arm stowed the offset is under 3 mm."""
+    arm_reaction: bool = True
+    """Include the arm's measured reaction in the stance wrench: the wrench the arm takes from
+    the trunk (MuJoCo's ``cfrc_int`` of its first link), less what a rigid robot of the same
+    mass and centre of mass would need, is added to the wrench the feet must supply. Ours:
+    without it the stance solve treats the robot as rigid and the arm's swings go unanswered
+    (docs/fullbody.md, "Falls")."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -129,6 +153,10 @@ class FullBodyCfg:
     physics_dt_s: float = 0.001
     """MuJoCo time step. Ours: 1 kHz; the joint PD law is re-evaluated every physics step
     (as a motor driver does), the controller's targets are held for a control period."""
+    integrator: Literal["implicitfast", "euler"] = "implicitfast"
+    """MuJoCo integrator. ``implicitfast`` integrates the arm's PD (MuJoCo position servos)
+    implicitly in velocity: the Z1's published damping (25.6 N m s/rad on a wrist of about
+    0.01 kg m^2) is unstable when stepped explicitly at 1 kHz."""
     trunk_half_height_m: float = 0.056
     """Half height of the trunk's collision box in the Aliengo MJCF (``size="... 0.056"``);
     the arm is mounted on its top."""
@@ -165,8 +193,13 @@ def validate_fullbody(cfg: FullBodyCfg) -> FullBodyCfg:
         )
     if not 0.1 <= cfg.gait.period_s <= 1.0:
         raise ValueError(f"gait.period_s={cfg.gait.period_s} must lie in [0.1, 1] s")
-    if len(cfg.z1.link_mass_kg) != 6 or len(cfg.z1.max_torque_nm) != 6:
-        raise ValueError("z1.link_mass_kg and z1.max_torque_nm need one value per joint (6)")
+    z1 = cfg.z1
+    per_joint = (z1.link_mass_kg, z1.max_torque_nm, z1.kp_nm_per_rad, z1.kd_nms_per_rad)
+    if any(len(v) != 6 for v in per_joint):
+        raise ValueError(
+            "z1.link_mass_kg, z1.max_torque_nm, z1.kp_nm_per_rad and z1.kd_nms_per_rad need "
+            "one value per joint (6)"
+        )
     if cfg.stand_height_m <= 0.2:
         raise ValueError(
             f"base.height_m={cfg.base.height_m} puts the trunk centre at "

@@ -42,7 +42,16 @@ class FullBodyEnv:
         self._jacp = np.zeros((3, self.model.nv))
         self.gait: GaitState | None = None
         self.arm_q_des = np.asarray(cfg.arm.stow_rad, float)
+        self.arm_qd_des = np.zeros(6)
         self.time_s = 0.0
+        self._arm_body = self.model.body("arm_link1").id
+        self.arm_mass_kg = float(self.model.body_subtreemass[self._arm_body])
+        self._leg_lo = self.model.actuator_ctrlrange[self.idx.leg_ctrl, 0]
+        self._leg_hi = self.model.actuator_ctrlrange[self.idx.leg_ctrl, 1]
+        z1 = self.cfg.z1
+        self._arm_kp = np.asarray(z1.kp_nm_per_rad, float)
+        self._arm_kd = np.asarray(z1.kd_nms_per_rad, float)
+        self._arm_accel = z1.max_joint_accel_rps2
 
     @property
     def dt_s(self) -> float:
@@ -59,6 +68,7 @@ class FullBodyEnv:
         d.qpos[idx.arm_qpos] = self.cfg.arm.stow_rad
         mj.mj_forward(self.model, d)
         self.arm_q_des = np.asarray(self.cfg.arm.stow_rad, float)
+        self.arm_qd_des = np.zeros(6)
         self.time_s = 0.0
         obs = self.observe()
         self.gait = initial_gait_state(obs)
@@ -71,6 +81,10 @@ class FullBodyEnv:
         for leg, body in enumerate(idx.foot_body):
             mj.mj_jacBody(m, d, self._jacp, None, body)
             jac[leg] = self._jacp[:, idx.leg_dof[3 * leg : 3 * leg + 3]]
+        # The wrench the trunk puts on the arm (force; moment about the robot's COM), from
+        # the last physics step's accelerations: what the arm's joints transmit.
+        mj.mj_rnePostConstraint(m, d)
+        link = self._arm_body
         return RobotObs(
             base_pos_m=d.qpos[:3].copy(),
             base_rot=rot,
@@ -81,6 +95,9 @@ class FullBodyEnv:
             foot_jac=jac,
             leg_q_rad=d.qpos[idx.leg_qpos].copy(),
             mass_kg=self.mass_kg,
+            arm_mass_kg=self.arm_mass_kg,
+            arm_com_m=d.subtree_com[link].copy(),
+            arm_wrench=np.concatenate([d.cfrc_int[link, 3:], d.cfrc_int[link, :3]]),
         )
 
     def gripper_m(self) -> np.ndarray:
@@ -97,7 +114,9 @@ class FullBodyEnv:
         does; the PD then tracks the converged targets, so its lag cannot wind the IK up."""
         mj, m, idx = self._mj, self.model, self.idx
         if goal_m is None:
-            return stow_target_step(self.arm_q_des, self.cfg.arm, self.dt_s)
+            return stow_target_step(
+                self.arm_q_des, self.arm_qd_des, self.cfg.arm, self.dt_s, self._arm_accel
+            )
         k = self._scratch
         k.qpos[:] = self.data.qpos
         k.qpos[idx.arm_qpos] = self.arm_q_des
@@ -106,12 +125,14 @@ class FullBodyEnv:
         mj.mj_jacSite(m, k, self._jacp, None, idx.gripper_site)
         return ik_target_step(
             self.arm_q_des,
+            self.arm_qd_des,
             self._jacp[:, idx.arm_dof],
             k.site_xpos[idx.gripper_site].copy(),
             np.asarray(goal_m, float),
             self.cfg.arm,
             self.dt_s,
             self.cfg.max_arm_ik_step_rad,
+            self._arm_accel,
         )
 
     def step(self, cmd: np.ndarray, arm_goal_m: np.ndarray | None = None) -> RobotObs:
@@ -122,24 +143,27 @@ class FullBodyEnv:
         cmd = np.asarray(cmd, float)
         obs = self.observe()
         legs, self.gait = trot_step(obs, cmd, self.gait, self.cfg)
-        self.arm_q_des = self._arm_targets(arm_goal_m)
+        q_des = self._arm_targets(arm_goal_m)
+        # The commanded joint velocity: the targets' step over the period (the SDK's dq).
+        self.arm_qd_des = (q_des - self.arm_q_des) / self.dt_s
+        self.arm_q_des = q_des
         self._run_pd(legs)
         self.time_s += self.dt_s
         return self.observe()
 
     def _run_pd(self, legs: JointTargets) -> None:
-        mj, m, d, idx, z1 = self._mj, self.model, self.data, self.idx, self.cfg.z1
-        # Gravity (and Coriolis) compensation of the arm, held over the control period.
-        arm_ff = d.qfrc_bias[idx.arm_dof].copy()
-        lo, hi = m.actuator_ctrlrange[:, 0], m.actuator_ctrlrange[:, 1]
+        mj, m, d, idx = self._mj, self.model, self.data, self.idx
+        # Gravity (and Coriolis) compensation of the arm, held over the control period. The
+        # arm's servos (model._add_arm) give kp (ctrl - q) - kd qd: this ctrl makes that
+        # kp (q_des - q) + kd (qd_des - qd) + tau_ff, the Z1's PD law with its feedforward.
+        arm_ff = d.qfrc_bias[idx.arm_dof]
+        d.ctrl[idx.arm_ctrl] = self.arm_q_des + (self._arm_kd * self.arm_qd_des + arm_ff) / (
+            self._arm_kp
+        )
         for _ in range(self.cfg.substeps):
             q, qd = d.qpos[idx.leg_qpos], d.qvel[idx.leg_dof]
             tau_leg = legs.kp * (legs.q_des - q) + legs.kd * (legs.qd_des - qd) + legs.tau_ff
-            qa, qda = d.qpos[idx.arm_qpos], d.qvel[idx.arm_dof]
-            tau_arm = z1.kp_nm_per_rad * (self.arm_q_des - qa) - z1.kd_nms_per_rad * qda + arm_ff
-            d.ctrl[idx.leg_ctrl] = tau_leg
-            d.ctrl[idx.arm_ctrl] = tau_arm
-            np.clip(d.ctrl, lo, hi, out=d.ctrl)
+            d.ctrl[idx.leg_ctrl] = np.clip(tau_leg, self._leg_lo, self._leg_hi)
             mj.mj_step(m, d)
 
     def fallen(self) -> bool:

@@ -75,6 +75,10 @@ def build_spec(cfg: FullBodyCfg):
     validate_fullbody(cfg)
     spec = mujoco.MjSpec.from_file(str(aliengo_mjcf_path()))
     spec.option.timestep = cfg.physics_dt_s
+    spec.option.integrator = {
+        "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
+        "euler": mujoco.mjtIntegrator.mjINT_EULER,
+    }[cfg.integrator]
     world = spec.worldbody
     world.add_geom(
         name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05], rgba=[0.8, 0.8, 0.8, 1]
@@ -129,13 +133,21 @@ def _add_arm(spec, cfg: FullBodyCfg) -> None:
             contype=0,
             conaffinity=0,
         )
-        spec.add_actuator(
+        # A position servo, force = kp (ctrl - q) - kd qd, clipped to the joint's torque
+        # limit: MuJoCo integrates its damping implicitly. The env sets ctrl so that the
+        # force is the Z1's PD law with its velocity and feedforward terms (``env._run_pd``).
+        kp, kd = z1.kp_nm_per_rad[i], z1.kd_nms_per_rad[i]
+        act = spec.add_actuator(
             name=f"arm_motor{i + 1}",
             target=ARM_JOINTS[i],
             trntype=mujoco.mjtTrn.mjTRN_JOINT,
-            ctrlrange=[-z1.max_torque_nm[i], z1.max_torque_nm[i]],
-            ctrllimited=mujoco.mjtLimited.mjLIMITED_TRUE,
+            forcerange=[-z1.max_torque_nm[i], z1.max_torque_nm[i]],
+            forcelimited=mujoco.mjtLimited.mjLIMITED_TRUE,
+            gaintype=mujoco.mjtGain.mjGAIN_FIXED,
+            biastype=mujoco.mjtBias.mjBIAS_AFFINE,
         )
+        act.gainprm[0] = kp
+        act.biasprm[:3] = [0.0, -kp, -kd]
         parent, pos = body, list(end)
     parent.add_site(name="gripper", pos=list(lengths[-1]), size=[0.01, 0, 0])
 
