@@ -36,8 +36,8 @@ import optax
 
 from dyncatch.bench.ppo_bench import gemm_peak_gflops, mlp_flops
 from dyncatch.rl.config import PPOCfg
-from dyncatch.rl.loss import ppo_loss
-from dyncatch.rl.networks import ActorCritic, gaussian_kl
+from dyncatch.rl.networks import ActorCritic
+from dyncatch.rl.train import minibatch_loss
 from dyncatch.sim.api import as_env
 from dyncatch.sim.config import WorldCfg
 
@@ -123,19 +123,7 @@ def rungs(obs_dim: int, ppo: PPOCfg, rows: int) -> dict:
     }
 
     def loss_fn(p, mb):
-        mean, log_std, value = net.apply(p, mb["obs"])
-        loss, metrics = ppo_loss(
-            mean,
-            log_std,
-            value,
-            mb,
-            ppo.clip_eps,
-            ppo.value_clip_eps,
-            ppo.vf_coef,
-            ppo.ent_coef,
-        )
-        kl = gaussian_kl(mb["means"], mb["log_stds"], mean, log_std).mean()
-        return loss, {**metrics, "kl": kl}
+        return minibatch_loss(p, net, ppo, mb)
 
     grad_ppo = jax.jit(jax.grad(loss_fn, has_aux=True))
     optimizer = optax.chain(

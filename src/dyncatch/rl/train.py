@@ -123,6 +123,18 @@ def batch_constraint(mesh: Mesh | None) -> Callable[[jax.Array, int], jax.Array]
     return constrain
 
 
+def minibatch_loss(params, net: ActorCritic, ppo: PPOCfg, mb: dict[str, jax.Array]):
+    """(PPO loss, metrics with the KL to the rollout's policy) of one minibatch ``mb``
+    (``obs``, ``actions``, ``log_probs``, ``advantages``, ``returns``, ``values``,
+    ``means``, ``log_stds``) under ``params``."""
+    mean, log_std, value = net.apply(params, mb["obs"])
+    loss, metrics = ppo_loss(
+        mean, log_std, value, mb, ppo.clip_eps, ppo.value_clip_eps, ppo.vf_coef, ppo.ent_coef
+    )
+    kl = gaussian_kl(mb["means"], mb["log_stds"], mean, log_std).mean()
+    return loss, {**metrics, "kl": kl}
+
+
 def step_with_final_input(env: Environment, vstep, vinit, env_state, action, obs_carry):
     """The batched auto-reset step; the policy input at each finished episode's last state
     (for time-out bootstrapping: taken with the pre-reset state, so a method that reads the
@@ -223,22 +235,7 @@ def make_train(
         def minibatch_step(carry, mb):
             params, opt_state, lr = carry
 
-            def loss_fn(p):
-                mean, log_std, value = net.apply(p, mb["obs"])
-                loss, metrics = ppo_loss(
-                    mean,
-                    log_std,
-                    value,
-                    mb,
-                    ppo.clip_eps,
-                    ppo.value_clip_eps,
-                    ppo.vf_coef,
-                    ppo.ent_coef,
-                )
-                kl = gaussian_kl(mb["means"], mb["log_stds"], mean, log_std).mean()
-                return loss, {**metrics, "kl": kl}
-
-            grads, metrics = jax.grad(loss_fn, has_aux=True)(params)
+            grads, metrics = jax.grad(minibatch_loss, has_aux=True)(params, net, ppo, mb)
             kl = metrics["kl"]
             lr = jnp.where(kl > 2 * ppo.desired_kl, lr / 1.5, lr)
             lr = jnp.where(kl < 0.5 * ppo.desired_kl, lr * 1.5, lr)
