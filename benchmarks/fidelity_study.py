@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from dyncatch.cli.main import main, parse
-from dyncatch.reproduce.aggregate import gap, time_gap
+from dyncatch.reproduce.aggregate import best_rival, gap, time_gap
 from dyncatch.reproduce.plan import estimate_s
 from dyncatch.reproduce.readings import READINGS, setting_name
 
@@ -82,7 +82,7 @@ def verdicts(results: dict) -> list[dict]:
             rivals = [by[k] for k in ((behavior, m, speed) for m in NON_ORACLE) if k in by]
             if oracle is None or not rivals:
                 continue
-            best = max(rivals, key=lambda c: (c["success_rate"], -c["catch_time_s"]))
+            best = best_rival(rivals)
             row = {"behavior": behavior, "speed_mps": speed, "best_non_oracle": best["method"]}
             row["oracle_gap_success"] = gap(oracle, best)
             row["oracle_gap_time"] = time_gap(oracle, best)

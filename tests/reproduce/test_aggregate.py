@@ -1,11 +1,16 @@
-"""Seeds to intervals and the ordering checks, on hand-worked numbers."""
+"""Seeds to intervals, the ordering checks and the headroom, on hand-worked numbers."""
 
 from __future__ import annotations
 
 import pytest
 
-from dyncatch.reproduce.aggregate import average_column, ordering_checks, summarize_cells
-from dyncatch.rl.methods import paper_claims
+from dyncatch.reproduce.aggregate import (
+    average_column,
+    headroom_checks,
+    ordering_checks,
+    summarize_cells,
+)
+from dyncatch.rl.methods import METHODS, paper_claims
 
 
 def _rows(method: str, success: list[float], times: list[float], speed: float = 1.8) -> list:
@@ -72,3 +77,33 @@ class TestOrderingChecks:
         # pooled episodes: 0.4 +- 1.96 * sqrt(0.09/100 + 0.25/100) = 0.4 +- 0.1143
         assert checks[0]["ci95"] == pytest.approx([0.4 - 0.11429, 0.4 + 0.11429], abs=1e-4)
         assert checks[0]["verdict"] == "holds"
+
+
+class TestHeadroom:
+    def test_the_oracle_meets_the_best_rival_on_success_then_catch_time(self):
+        rows = (
+            _rows("gt_rl", [1.0, 0.99, 0.98], [7.0, 7.5, 8.0])
+            + _rows("rl", [0.9, 0.92, 0.94], [11.0, 11.5, 12.0])
+            # p_rl and sp_rl tie on success: the faster one (sp_rl) is the best rival.
+            + _rows("p_rl", [0.96, 0.96, 0.96], [10.5, 11.0, 11.5])
+            + _rows("sp_rl", [0.96, 0.96, 0.96], [10.0, 10.5, 11.0])
+        )
+        cells = summarize_cells(rows)
+        rivals = [n for n in ("rl", "p_rl", "sp_rl", "gt_rl") if not METHODS[n].oracle]
+        assert rivals == ["rl", "p_rl", "sp_rl"]
+        checks = {c["metric"]: c for c in headroom_checks(cells, [1.8], "gt_rl", rivals)}
+        assert {c["best_non_oracle"] for c in checks.values()} == {"sp_rl"}
+        assert checks["success_rate"]["claim"] == "gt_rl > sp_rl"
+        # 0.99 - 0.96 = 0.03; Welch se = sqrt(0.0001 / 3 + 0 / 3) = 0.005774, x 4.303 = 0.02484
+        s = checks["success_rate"]
+        assert s["difference"] == pytest.approx(0.03)
+        assert s["ci95"] == pytest.approx([0.03 - 0.02484, 0.03 + 0.02484], abs=1e-4)
+        assert s["verdict"] == "holds"
+        # 10.5 - 7.5 = 3.0 s; se = sqrt(0.25/3 + 0.25/3) = 0.4082, x 4.303 = 1.7566
+        t = checks["catch_time_s"]
+        assert t["difference"] == pytest.approx(3.0)
+        assert t["ci95"] == pytest.approx([3.0 - 1.7566, 3.0 + 1.7566], abs=1e-3)
+
+    def test_no_oracle_cell_gives_no_check(self):
+        cells = summarize_cells(_rows("rl", [0.9, 0.8], [9.0, 9.5]))
+        assert headroom_checks(cells, [1.8], "gt_rl", ["rl"]) == []

@@ -187,3 +187,32 @@ def test_seed_groups_are_checked_at_the_boundary(tmp_path, capsys):
         SeedGroupRunner([a, a])
     assert main(["train", *TINY, "--seeds", "0", "--out", str(tmp_path / "x")]) == 2
     assert "--seeds" in capsys.readouterr().err
+
+
+STACKED = """
+import jax, numpy as np
+from dyncatch.rl.config import PPOCfg
+from dyncatch.rl.seeds import stacked_init
+from dyncatch.rl.train import make_train
+from dyncatch.sim.config import WorldCfg
+
+init, _, _ = make_train(WorldCfg(), PPOCfg(num_envs=16, num_steps=8))  # default networks
+keys = jax.random.split(jax.random.key(0), 2)
+group = stacked_init(init)(keys)
+alone = jax.jit(init)(keys[1])
+raw = lambda x: jax.random.key_data(x) if jax.dtypes.issubdtype(x.dtype, jax.dtypes.prng_key) else x
+for g, a in zip(jax.tree.leaves(group), jax.tree.leaves(alone), strict=True):
+    assert np.array_equal(np.asarray(raw(g[1])), np.asarray(raw(a)))
+print("ok")
+"""
+
+
+def test_a_group_of_the_default_networks_starts_as_its_seeds_would():
+    """A group's starting state is each seed's own init, bit for bit. In a subprocess with
+    a time limit: vmap(init) of the default networks never returned on 2 cores (a batched
+    QR deadlocking XLA:CPU's pool; rl.seeds.stacked_init), and a hang must fail, not stall."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    done = subprocess.run(
+        [sys.executable, "-c", STACKED], env=env, capture_output=True, text=True, timeout=300
+    )
+    assert done.returncode == 0 and done.stdout.strip() == "ok", done.stderr[-2000:]

@@ -101,6 +101,7 @@ def ppo_samples_per_s(
 def compiled_train(env, ppo: PPOCfg, obs_fn, seeds: int = 1):
     """The jitted ``init`` and ``iterate`` the runners use: the batch split over every local
     device, and with ``seeds`` > 1 ``vmap``-ped over a leading seed axis."""
+    from dyncatch.rl.seeds import stacked_init
     from dyncatch.rl.sharding import batch_mesh, state_shardings, validate_mesh
     from dyncatch.rl.train import make_train
 
@@ -108,11 +109,17 @@ def compiled_train(env, ppo: PPOCfg, obs_fn, seeds: int = 1):
     validate_mesh(ppo, mesh.size)
     init, iterate, _ = make_train(env, ppo, obs_fn, mesh)
     key = jax.random.key(0)
-    if seeds > 1:
-        init, iterate, key = jax.vmap(init), jax.vmap(iterate), jax.random.split(key, seeds)
-    sh = state_shardings(jax.eval_shape(init, key), mesh, env_axis=int(seeds > 1))
     whole = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec())
-    return jax.jit(init, out_shardings=sh), jax.jit(iterate, out_shardings=(sh, whole))
+    if seeds == 1:
+        sh = state_shardings(jax.eval_shape(init, key), mesh, env_axis=0)
+        return jax.jit(init, out_shardings=sh), jax.jit(iterate, out_shardings=(sh, whole))
+    keys = jax.random.split(key, seeds)
+    sh = state_shardings(jax.eval_shape(jax.vmap(init), keys), mesh, env_axis=1)
+    group_init = stacked_init(init)  # not vmap(init): see rl.seeds.stacked_init
+    return (
+        lambda keys: jax.device_put(group_init(keys), sh),
+        jax.jit(jax.vmap(iterate), out_shardings=(sh, whole)),
+    )
 
 
 def run_ppo_benchmark(

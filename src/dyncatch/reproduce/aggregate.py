@@ -1,4 +1,5 @@
-"""Seeds to means and 95 % confidence intervals, and the ordering checks of the paper."""
+"""Seeds to means and 95 % confidence intervals, the ordering checks of the paper, and the
+benchmark's headroom (the oracle against the best non-oracle method)."""
 
 from __future__ import annotations
 
@@ -153,4 +154,37 @@ def ordering_checks(cells: list[dict], speeds, claims) -> list[dict]:
                 faster = time_gap(a, b)
                 if faster is not None:
                     checks.append({**where, **faster})
+    return checks
+
+
+def best_rival(cells: list[dict]) -> dict:
+    """The best of several methods' cells: highest success, then shortest catch time."""
+    return max(cells, key=lambda c: (c["success_rate"], -c["catch_time_s"]))
+
+
+def headroom_checks(cells: list[dict], speeds, oracle: str, rivals) -> list[dict]:
+    """The room a benchmark leaves (issue 12): per behaviour and speed, ``oracle`` against
+    the best of ``rivals`` there (``best_rival``), judged as ``ordering_checks`` judges a
+    claim (``claim`` is ``"oracle > best"``, ``best_non_oracle`` names the best), on success
+    and, with 2+ seeds, on catch time. 'holds' means the oracle is measurably better: a
+    method that reads what a robot can sense has room to improve."""
+    by = {(c["behavior"], c["method"], c["speed_mps"]): c for c in cells}
+    checks = []
+    for behavior in dict.fromkeys(c["behavior"] for c in cells):
+        for speed in speeds:
+            top = by.get((behavior, oracle, speed))
+            found = [by[k] for k in ((behavior, m, speed) for m in rivals) if k in by]
+            if top is None or not found:
+                continue
+            best = best_rival(found)
+            where = {
+                "behavior": behavior,
+                "speed_mps": speed,
+                "claim": f"{oracle} > {best['method']}",
+                "best_non_oracle": best["method"],
+            }
+            checks.append({**where, **gap(top, best)})
+            faster = time_gap(top, best)
+            if faster is not None:
+                checks.append({**where, **faster})
     return checks

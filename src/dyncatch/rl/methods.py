@@ -118,6 +118,12 @@ class Method:
         return self.trained_as or self.name
 
     @property
+    def oracle(self) -> bool:
+        """Reads the target's true velocity (``gt_rl``): the upper reference of a benchmark,
+        not a method a robot can run."""
+        return self.velocity_input == GROUND_TRUTH and self.trained
+
+    @property
     def predictor_kind(self) -> str | None:
         """The frozen predictor this method reads, if any."""
         return None if self.velocity_input in (None, GROUND_TRUTH) else self.velocity_input

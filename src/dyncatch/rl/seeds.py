@@ -1,10 +1,10 @@
 """Several seeds of one training config as one ``vmap``-ped computation.
 
 ``SeedGroupRunner(cfgs).learn(progress)`` trains runs that differ only in seed and run
-folder: ``init`` and ``iterate`` of ``make_train`` are ``vmap``-ped over a leading seed
-axis and jitted once, so S seeds cost one compilation and one dispatch per iteration, and
-the small per-seed matrix products become batched ones. Each seed still writes what a
-``TrainRunner`` writes (checkpoint with the one-seed header, metrics.csv, tb/), so either
+folder: ``iterate`` of ``make_train`` is ``vmap``-ped over a leading seed axis and jitted
+once, so S seeds cost one compilation and one dispatch per iteration, and the small
+per-seed matrix products become batched ones (``init`` runs once per seed:
+``stacked_init``). Each seed still writes what a ``TrainRunner`` writes (checkpoint with the one-seed header, metrics.csv, tb/), so either
 runner resumes the other's runs, and a seed's results equal its separate run's to float
 tolerance: the random streams are the same keys, only the batched products may sum in
 another order (``tests/rl/test_seeds.py`` measures it).
@@ -30,6 +30,27 @@ from dyncatch.rl.sharding import state_shardings
 from dyncatch.rl.train import TrainState, make_train
 from dyncatch.sim.api import Environment
 from dyncatch.utils.progress import NoProgress, Progress
+
+
+def stacked_init(init):
+    """``init`` for a leading axis of keys, one jitted call per key, stacked.
+
+    Not ``vmap(init)``: the networks' orthogonal initialiser is a QR factorisation, and a
+    batched QR is one LAPACK call that jaxlib (0.10) splits over XLA:CPU's intra-op thread
+    pool and waits for. Two such calls run side by side in one program (the actor's and the
+    critic's layers) each hold a pool thread while waiting for the other's tasks; with as
+    many threads as calls (2 on 2 cores) nothing runs and the program never returns
+    (measured: every ``--seeds 2`` run with the default networks hung here, ``--seeds 1``
+    did not; docs/scaling.md). Per key this is the one-seed run's own ``init``, so a seed's
+    starting state equals its separate run's bit for bit.
+    """
+    one = jax.jit(init)
+
+    def run(keys: jax.Array):
+        return jax.tree.map(lambda *xs: jnp.stack(xs), *(one(k) for k in keys))
+
+    return run
+
 
 _PER_SEED = ("seed", "out", "resume")
 """The fields in which the runs of one group may differ."""
@@ -70,15 +91,19 @@ class SeedGroupRunner:
         first = self.runners[0]
         self.cfg, self.ppo, self.mesh = first.cfg, first.ppo, first.mesh
         init, iterate, _ = make_train(first.env, first.ppo, first.obs_fn, self.mesh)
-        self._vinit, self._viterate = jax.vmap(init), jax.vmap(iterate)
+        self._one_init = init
+        self._init, self._viterate = stacked_init(init), jax.vmap(iterate)
 
     def _compiled(self, n: int):
         """The jitted group ``init`` and ``iterate`` for ``n`` seeds, and the state's
         shardings (the seed axis whole, the environment axis split)."""
         keys = jax.eval_shape(lambda: jax.random.split(jax.random.key(0), n))
-        sh = state_shardings(jax.eval_shape(self._vinit, keys), self.mesh, env_axis=1)
+        sh = state_shardings(jax.eval_shape(jax.vmap(self._one_init), keys), self.mesh, env_axis=1)
         whole = jax.sharding.NamedSharding(self.mesh, jax.sharding.PartitionSpec())
-        init = jax.jit(self._vinit, out_shardings=sh)
+
+        def init(keys):
+            return jax.device_put(self._init(keys), sh)
+
         return init, jax.jit(self._viterate, out_shardings=(sh, whole)), sh
 
     def _starts(self) -> list[tuple[int, TrainState | None]]:
