@@ -4,9 +4,9 @@
 folder: ``iterate`` of ``make_train`` is ``vmap``-ped over a leading seed axis and jitted
 once, so S seeds cost one compilation and one dispatch per iteration, and the small
 per-seed matrix products become batched ones (``init`` runs once per seed:
-``stacked_init``). Each seed still writes what a ``TrainRunner`` writes (checkpoint with the one-seed header, metrics.csv, tb/), so either
-runner resumes the other's runs, and a seed's results equal its separate run's to float
-tolerance: the random streams are the same keys, only the batched products may sum in
+``stacked_init``). Each seed still writes what a ``TrainRunner`` writes (checkpoint with
+the one-seed header, metrics.csv, tb/), so either runner resumes the other's runs, and a
+seed's results equal its separate run's to float tolerance: the random streams are the same keys, only the batched products may sum in
 another order (``tests/rl/test_seeds.py`` measures it).
 
 Seeds whose checkpoints stand at different iterations (a group interrupted mid-way cannot
