@@ -6,8 +6,9 @@ once, so S seeds cost one compilation and one dispatch per iteration, and the sm
 per-seed matrix products become batched ones (``init`` runs once per seed:
 ``stacked_init``). Each seed still writes what a ``TrainRunner`` writes (checkpoint with
 the one-seed header, metrics.csv, tb/), so either runner resumes the other's runs, and a
-seed's results equal its separate run's to float tolerance: the random streams are the same keys, only the batched products may sum in
-another order (``tests/rl/test_seeds.py`` measures it).
+seed's results equal its separate run's to float tolerance: the random streams are the
+same keys, only the batched products may sum in another order (``tests/rl/test_seeds.py``
+measures it).
 
 Seeds whose checkpoints stand at different iterations (a group interrupted mid-way cannot
 do that, serial runs can) are trained as one group per starting iteration.
