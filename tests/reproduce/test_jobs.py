@@ -110,3 +110,31 @@ def test_a_column_not_trained_on_plays_the_first_behaviours_policy_in_its_own_wo
             path.write_text(json.dumps([{"method": method}]))
     got = evaluate_grid(plan, tmp_path, "fig6", ("circle",), (1.2,), Recorder())
     assert {r["trained_on"] for r in got} == {"reactive"}
+
+
+def test_fig6_takes_table_i_cells_where_it_has_them_and_evaluates_the_rest(tmp_path):
+    from dyncatch.reproduce.stages import fig6_evaluated_columns, fig6_grid
+
+    plan = Plan(seeds=1, behaviors=("reactive",), speeds_mps=(1.4, 1.8),
+                fig6_behaviors=("reactive", "circle"))  # fmt: skip
+    assert fig6_evaluated_columns(plan) == ("circle",)
+    table_i = [
+        {"behavior": "reactive", "method": m, "speed_mps": v, "success_rate": v / 2}
+        for m, _ in policies(plan)
+        for v in (1.4, 1.8)
+    ]
+    for method, seed in policies(plan):
+        path = cell_path(tmp_path, "fig6", "circle", method, seed)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps([{"behavior": "circle", "method": method, "speed_mps": 1.8}]))
+    ex = Recorder()
+    rows = fig6_grid(plan, tmp_path, table_i, ex)
+    assert ex.jobs == []  # reactive is Table I's; circle's cells exist
+    assert [(r["behavior"], r["speed_mps"]) for r in rows] == [("reactive", 1.8)] * len(
+        policies(plan)
+    ) + [("circle", 1.8)] * len(policies(plan))
+    assert [r["success_rate"] for r in rows[: len(policies(plan))]] == [0.9] * len(policies(plan))
+    # At a speed Table I does not have, every column is evaluated.
+    assert fig6_evaluated_columns(Plan(fig6_speed_mps=1.7, fig6_behaviors=("reactive",))) == (
+        "reactive",
+    )

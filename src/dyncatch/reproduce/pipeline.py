@@ -76,8 +76,7 @@ def run(plan: Plan, command: str, log: Callable[[str], None], progress=None) -> 
         )
         log("stage 5/7: Fig. 6 evaluation")
         behaviors = plan.fig6_columns
-        fig6_speeds = (plan.fig6_speed_mps,)
-        fig6_rows = stages.evaluate_grid(plan, out, "fig6", behaviors, fig6_speeds, executor)
+        fig6_rows = stages.fig6_grid(plan, out, t1_rows, executor)
         clips = []
         if plan.videos:
             log("stage 6/7: videos")

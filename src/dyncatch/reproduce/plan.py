@@ -211,12 +211,14 @@ def estimate_s(plan: Plan) -> float:
     """A rough wall-time estimate (seconds) for the whole plan on 2 cores."""
     from dyncatch.policies.registry import BASELINES
     from dyncatch.predictor.table import all_kinds
+    from dyncatch.reproduce.stages import fig6_evaluated_columns
     from dyncatch.rl.methods import predictor_kinds
 
     columns = plan.fig6_columns
     train = plan.training_runs * (plan.train_steps / EST_SAMPLES_PER_S + EST_COMPILE_S_PER_RUN)
     policies = len(plan.method_names) * plan.seeds + len(BASELINES)
-    cells = policies * (len(plan.speeds_mps) * len(plan.table_i_rows) + len(columns))
+    fig6 = len(fig6_evaluated_columns(plan))
+    cells = policies * (len(plan.speeds_mps) * len(plan.table_i_rows) + fig6)
     evaluate = cells * (plan.episodes / 1000 * EST_EVAL_S_PER_1000_EPISODES + 1.0)
     pred_steps = (
         len(predictor_kinds(plan.method_names)) * len(plan.behaviors) * plan.predictor_steps

@@ -231,6 +231,28 @@ def evaluate_grid(plan: Plan, out: Path, table: str, behaviors, speeds, executor
     return rows
 
 
+def fig6_grid(plan: Plan, out: Path, table_i_rows: list[dict], executor) -> list[dict]:
+    """Fig. 6's rows: every policy at ``fig6_speed_mps`` on each of its columns. A column that
+    is a Table I row, when Fig. 6's speed is a Table I speed, takes Table I's cells there (the
+    same policies, behaviour, speed and episode count; evaluating them again would only draw
+    other episodes); the other columns are evaluated (``evaluate_grid``)."""
+    speed = plan.fig6_speed_mps
+    rest = fig6_evaluated_columns(plan)
+    evaluated = evaluate_grid(plan, out, "fig6", rest, (speed,), executor) if rest else []
+    rows = []
+    for b in plan.fig6_columns:
+        source = evaluated if b in rest else table_i_rows
+        rows += [r for r in source if r["behavior"] == b and abs(r["speed_mps"] - speed) < 1e-9]
+    return rows
+
+
+def fig6_evaluated_columns(plan: Plan) -> tuple[str, ...]:
+    """The Fig. 6 columns ``fig6_grid`` evaluates (the others reuse Table I's cells)."""
+    if not any(abs(plan.fig6_speed_mps - v) < 1e-9 for v in plan.speeds_mps):
+        return plan.fig6_columns
+    return tuple(b for b in plan.fig6_columns if b not in plan.table_i_rows)
+
+
 def filmed_methods(plan: Plan) -> tuple[str, ...]:
     return tuple(name for name in plan.method_names if METHODS[name].filmed)
 
