@@ -38,9 +38,10 @@ def stacked_init(init):
 
     Not ``vmap(init)``: the networks' orthogonal initialiser is a QR factorisation, and a
     batched QR is one LAPACK call that jaxlib (0.10) splits over XLA:CPU's intra-op thread
-    pool and waits for. Two such calls run side by side in one program (the actor's and the
-    critic's layers) each hold a pool thread while waiting for the other's tasks; with as
-    many threads as calls (2 on 2 cores) nothing runs and the program never returns
+    pool and waits for. XLA runs independent calls side by side (the stacks of a hung run
+    showed a ``geqrf`` and an ``orgqr``), each holding a pool thread while waiting for tasks
+    queued behind the other; with as many threads as calls (2 on 2 cores) nothing runs and
+    the program never returns
     (measured: every ``--seeds 2`` run with the default networks hung here, ``--seeds 1``
     did not; docs/scaling.md). Per key this is the one-seed run's own ``init``, so a seed's
     starting state equals its separate run's bit for bit.
