@@ -93,18 +93,18 @@ class SeedGroupRunner:
         first = self.runners[0]
         self.cfg, self.ppo, self.mesh = first.cfg, first.ppo, first.mesh
         init, iterate, _ = make_train(first.env, first.ppo, first.obs_fn, self.mesh)
-        self._one_init = init
-        self._init, self._viterate = stacked_init(init), jax.vmap(iterate)
+        self._init, self._viterate = init, jax.vmap(iterate)
 
     def _compiled(self, n: int):
         """The jitted group ``init`` and ``iterate`` for ``n`` seeds, and the state's
         shardings (the seed axis whole, the environment axis split)."""
         keys = jax.eval_shape(lambda: jax.random.split(jax.random.key(0), n))
-        sh = state_shardings(jax.eval_shape(jax.vmap(self._one_init), keys), self.mesh, env_axis=1)
+        sh = state_shardings(jax.eval_shape(jax.vmap(self._init), keys), self.mesh, env_axis=1)
         whole = jax.sharding.NamedSharding(self.mesh, jax.sharding.PartitionSpec())
+        group_init = stacked_init(self._init)
 
         def init(keys):
-            return jax.device_put(self._init(keys), sh)
+            return jax.device_put(group_init(keys), sh)
 
         return init, jax.jit(self._viterate, out_shardings=(sh, whole)), sh
 
