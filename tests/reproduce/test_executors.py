@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 import jax
+import pytest
 
 from dyncatch.reproduce.executors import SerialExecutor, worker_env
 from dyncatch.reproduce.stages import Job
@@ -65,3 +66,28 @@ def test_a_worker_runs_a_job_with_the_drivers_behaviours_then_restores_its_own(
     _run_on_worker(job, {**BEHAVIORS, "straight": STRAIGHT}, str(driver_cwd))
     assert out.read_text() == " ".join(sorted([*before, "straight"]))
     assert BEHAVIORS == before and os.getcwd() == str(driver_cwd)
+
+
+@jax.jit
+def _doubled(x):
+    return 2.0 * x
+
+
+def _job_that_compiles(out: Path, progress=None) -> None:
+    out.write_text(str(float(_doubled(jax.numpy.float32(3.0)))))
+
+
+def test_a_job_releases_the_programs_it_compiled_even_when_it_fails(tmp_path):
+    # A long reproduction compiles hundreds of programs; kept, their memory mappings reach
+    # the kernel's limit (vm.max_map_count) and the process dies.
+    Job("compile", _job_that_compiles, (tmp_path / "x",))()
+    assert (tmp_path / "x").read_text() == "6.0"
+    assert _doubled._cache_size() == 0
+
+    def fails(progress=None):
+        _doubled(jax.numpy.float32(1.0))
+        raise RuntimeError("boom")
+
+    with pytest.raises(RuntimeError, match="boom"):
+        Job("fails", fails, ())()
+    assert _doubled._cache_size() == 0
