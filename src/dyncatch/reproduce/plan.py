@@ -88,8 +88,9 @@ class Plan:
     fig9_episodes: int = 500
     """Evaluation episodes per Fig. 9 cell (scene, behaviour, row, seed). 500, not Table I's
     1000: Fig. 9 has 192 cells of 40 s episodes (measured on 2 cores: 13 s per 1000 episodes
-    of plain sp_rl in room_8, 18 s blended), and its CIs are over seeds, whose spread the
-    within-seed binomial error (at most 0.022 at 500 episodes) stays below."""
+    of plain sp_rl in room_8, 18 s blended). Its CIs are over seeds; a seed's own binomial
+    error at 500 episodes is at most 0.022 (in the full run, room_8's seeds of blended sp_rl
+    on reactive spread less than that, 0.950-0.962, so there it is part of the CI)."""
     fig9_duration_s: float | None = None
     """Episode length of Fig. 9 (default: each scene's, 40 s as in the paper)."""
     vmap_seeds: bool = True
