@@ -77,9 +77,24 @@ def _job_that_compiles(out: Path, progress=None) -> None:
     out.write_text(str(float(_doubled(jax.numpy.float32(3.0)))))
 
 
-def test_a_job_releases_the_programs_it_compiled_even_when_it_fails(tmp_path):
+def test_a_job_keeps_its_programs_far_from_the_mappings_limit(tmp_path, monkeypatch):
+    import dyncatch.reproduce.stages as stages
+
+    _doubled(jax.numpy.float32(0.0))
+    monkeypatch.setattr(stages, "_mappings", lambda: (100, 65530))
+    Job("compile", _job_that_compiles, (tmp_path / "x",))()
+    assert _doubled._cache_size() == 1
+    jax.clear_caches()
+
+
+def test_a_job_releases_the_programs_it_compiled_near_the_limit_even_when_it_fails(
+    tmp_path, monkeypatch
+):
     # A long reproduction compiles hundreds of programs; kept, their memory mappings reach
     # the kernel's limit (vm.max_map_count) and the process dies.
+    import dyncatch.reproduce.stages as stages
+
+    monkeypatch.setattr(stages, "_mappings", lambda: (40_000, 65530))
     Job("compile", _job_that_compiles, (tmp_path / "x",))()
     assert (tmp_path / "x").read_text() == "6.0"
     assert _doubled._cache_size() == 0
