@@ -15,16 +15,16 @@ import jax
 import jax.numpy as jnp
 
 from dyncatch.sim.config import ArmCfg, BaseCfg
-from dyncatch.sim.gate import where_active
 
 IK_COMPACT_FRACTIONS = (1 / 64, 1 / 8)
-"""Under ``vmap`` the IK runs on a compact sub-batch of the active environments, 1/64 or 1/8
-of the batch, whichever holds them all, or on the whole batch when more are active
-(``sim.gate``). Results do not depend on it (``()`` turns the gate off), so it is a constant
-rather than a config field, which would enter checkpoint headers and cache keys. The sizes:
-arms are active in 0.03 % of environments under random commands (1/64 holds them) and in
-4-5.5 % under the pursuit baseline, at most 7.5 % at any step (1/8 holds them); the IK's cost
-grows with the rows it solves (docs/performance.md)."""
+"""Under ``vmap`` the arm's control step with IK (``sim.env``) runs on a compact sub-batch of
+the environments whose arm is active at some sub-step, 1/64 or 1/8 of the batch, whichever
+holds them all, or on the whole batch when more are active (``sim.gate``). Results do not
+depend on it (``()`` turns the gate off), so it is a constant rather than a config field,
+which would enter checkpoint headers and cache keys. The sizes: arms are active in 0.03 % of
+environments under random commands (1/64 holds them) and in 4-5.5 % under the pursuit
+baseline, at most 7.5 % at any step (1/8 holds them); the IK's cost grows with the rows it
+solves (docs/performance.md)."""
 
 
 def _chain(q: jax.Array, cfg: ArmCfg):
@@ -149,11 +149,24 @@ def arm_substep(
     """One 200 Hz arm update: reach for ``goal_base`` when ``active``, else fold to the stow pose.
 
     ``gripper_base`` is ``gripper_in_base(q)``, passed in because the caller needs it too.
-    Joint velocities are clipped to their limit and the result to the joint limits.
+    Joint velocities are clipped to their limit and the result to the joint limits. The IK is
+    computed and then selected: the simulator gates whole control steps of the arm instead
+    (``sim.env``, ``IK_COMPACT_FRACTIONS``).
     """
-    stow = jnp.asarray(cfg.stow_rad, jnp.float32)
-    dq_ik = where_active(dls_step, IK_COMPACT_FRACTIONS)(active, q, gripper_base, goal_base, cfg)
-    dq = jnp.where(active, dq_ik, stow - q)
+    dq = jnp.where(active, dls_step(q, gripper_base, goal_base, cfg), stow_delta(q, cfg))
+    return _limited(q, dq, cfg, dt_s)
+
+
+def stow_substep(q: jax.Array, cfg: ArmCfg, dt_s: float) -> jax.Array:
+    """``arm_substep`` of an arm that is not active: fold toward the stow pose (no IK)."""
+    return _limited(q, stow_delta(q, cfg), cfg, dt_s)
+
+
+def stow_delta(q: jax.Array, cfg: ArmCfg) -> jax.Array:
+    return jnp.asarray(cfg.stow_rad, jnp.float32) - q
+
+
+def _limited(q: jax.Array, dq: jax.Array, cfg: ArmCfg, dt_s: float) -> jax.Array:
     max_dq = cfg.max_joint_vel_rps * dt_s
     q_new = q + jnp.clip(dq, -max_dq, max_dq)
     return jnp.clip(q_new, joint_min(cfg), joint_max(cfg))

@@ -13,8 +13,9 @@ bit-identical to the reference ``where`` under one ``vmap`` (the same element-wi
 the same inputs); under nested ``vmap``s it equals the flat reference bit for bit, which
 XLA:CPU itself compiles to within float rounding of the nested one (``tests/sim/test_gate.py``).
 
-The arm's IK is the user (``arm.arm_substep``): about three quarters of a simulator step,
-for an arm that is active in a few percent of environments (``docs/performance.md``).
+The users: the arm's control step with its IK (``sim.env``), which reaches in a few percent
+of environments, and the auto-reset (``sim.vec``), which starts few episodes per step
+(``docs/performance.md``).
 Not differentiable in reverse mode (``custom_vmap``); nothing differentiates the simulator.
 """
 
