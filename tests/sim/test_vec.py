@@ -29,28 +29,43 @@ def _leaves(tree):
     ]
 
 
-def _step(state, actions):
+def _compiled_step(state, actions):
     # A fresh function each time, so the fractions are read when it is traced.
-    return jax.jit(lambda s, a, e: vec.batch_step_with_final(s, a, e))(state, actions, ENV)
+    fn = jax.jit(lambda s, a, e: vec.batch_step_with_final(s, a, e))
+    return fn.lower(state, actions, ENV).compile()
 
 
 def _switches(state, actions) -> int:
-    """Conds in the traced batched step: one per gate (the 4 arm sub-steps, the reset)."""
+    """Conds in the traced batched step: one per gate (the arm's control step, the reset)."""
     return str(jax.make_jaxpr(lambda s, a: vec.batch_step(s, a, ENV))(state, actions)).count(
         "cond["
     )
 
 
+def _actions():
+    return jax.random.uniform(jax.random.key(2), (N, 3), minval=-1.0, maxval=1.0)
+
+
+@pytest.fixture(scope="module")
+def steps():
+    """The gated and the ungated batched step, each compiled once for every ``count`` below
+    (the counts change the data, not the program)."""
+    state, actions = _ending(0)[0], _actions()
+    gated, switches = _compiled_step(state, actions), _switches(state, actions)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(vec, "RESET_COMPACT_FRACTIONS", ())
+        ungated, ungated_switches = _compiled_step(state, actions), _switches(state, actions)
+    assert ungated_switches == switches - 1  # the reset's gate is gone
+    return gated, ungated
+
+
 # With 256 environments the sub-batches have 4 and 32 rows: 0 and 3 ending fit the first,
 # 20 the second, 100 and all of them need the whole batch.
 @pytest.mark.parametrize("count", [0, 3, 20, 100, N])
-def test_gated_auto_reset_equals_the_ungated_one(monkeypatch, count):
+def test_gated_auto_reset_equals_the_ungated_one(steps, count):
     state, ends = _ending(count)
-    actions = jax.random.uniform(jax.random.key(2), (N, 3), minval=-1.0, maxval=1.0)
-    gated, switches = _step(state, actions), _switches(state, actions)
-    monkeypatch.setattr(vec, "RESET_COMPACT_FRACTIONS", ())
-    ungated = _step(state, actions)
-    assert _switches(state, actions) == switches - 1  # the reset's gate is gone
+    gated_step, ungated_step = steps
+    gated, ungated = gated_step(state, _actions(), ENV), ungated_step(state, _actions(), ENV)
     np.testing.assert_array_equal(gated[3], ends)
     for a, b in zip(_leaves(gated), _leaves(ungated), strict=True):
         np.testing.assert_array_equal(a, b)
