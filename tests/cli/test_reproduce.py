@@ -175,11 +175,11 @@ def test_bad_flags_are_refused_naming_the_flag(tmp_path, capsys):
 
 def test_a_profile_sets_defaults_and_every_flag_given_overrides_it():
     quick = parse(["reproduce", "--quick"])[1]
-    assert quick.ppo.hidden_sizes == (128, 128, 64) and quick.train_steps == 800_000
+    assert quick.ppo.hidden_sizes == (128, 128, 64) and quick.train_steps == 500_000
     assert parse(["reproduce"])[1].ppo.hidden_sizes == (256, 256, 128)
     changed = parse(["reproduce", "--quick", "--ppo.num-envs", "256", "--seeds", "2"])[1]
     assert changed.ppo.hidden_sizes == (128, 128, 64)
-    assert (changed.ppo.num_envs, changed.seeds, changed.train_steps) == (256, 2, 800_000)
+    assert (changed.ppo.num_envs, changed.seeds, changed.train_steps) == (256, 2, 500_000)
     # A flag equal to the library default still overrides the profile (it was lost before).
     wide = parse(["reproduce", "--quick", "--ppo.hidden-sizes", "256", "256", "128"])[1]
     assert wide.ppo.hidden_sizes == (256, 256, 128) and wide.quick
