@@ -27,7 +27,7 @@ class Plan:
     """
 
     quick: bool = False
-    """The quick profile (one seed, short training, fewer episodes; about 10 min on 2 cores)
+    """The quick profile (one seed, one behaviour, short training, fewer episodes; 9 min on 2 cores)
     instead of the full one (3 seeds, 4 M steps per run, 1000 episodes per cell)."""
     out: Path | None = None
     """Results folder (default results/full or results/quick)."""
