@@ -265,7 +265,7 @@ def render_report(r: dict, plan: Plan) -> str:
     src = ", ".join(f"{b} -> {layout.source_behavior(plan, b)}" for b in plan.fig6_columns)
     lines += [
         "",
-        f"## Fig. 6: {plan.fig6_speed_mps} m/s on every behaviour",
+        f"## Fig. 6: {plan.fig6_speed_mps} m/s on {', '.join(plan.fig6_columns)}",
         "",
         f"Policies evaluated on a behaviour they were not trained on come from the first "
         f"trained behaviour (evaluated -> trained on: {src}).",
