@@ -16,9 +16,12 @@ from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from flax import struct
 
-_INF = jnp.float32(jnp.inf)
+_INF = np.float32(np.inf)
+"""A numpy constant: one made with jnp at import would start a JAX backend before
+``utils.jax_setup.setup_jax`` sets XLA's flags."""
 _PARALLEL = 1e-12
 """A ray direction component below this is parallel to the box's sides."""
 

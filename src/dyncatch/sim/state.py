@@ -146,8 +146,12 @@ class Obs:
 
 
 def _obs_dim() -> int:
-    zeros = {f.name: jnp.zeros(f.metadata["shape"]) for f in dataclasses.fields(Obs)}
-    return jax.eval_shape(lambda: Obs(**zeros).flat).shape[-1]
+    # Shapes only, inside eval_shape: an array made at import would start a JAX backend
+    # before ``utils.jax_setup.setup_jax`` sets XLA's flags.
+    def flat():
+        return Obs(**{f.name: jnp.zeros(f.metadata["shape"]) for f in dataclasses.fields(Obs)}).flat
+
+    return jax.eval_shape(flat).shape[-1]
 
 
 OBS_DIM = _obs_dim()
