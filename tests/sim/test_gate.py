@@ -78,18 +78,21 @@ class TestOneBatch:
         assert bool(jnp.all(out[~active] == 0.0))
 
     def test_each_branch_is_taken_where_it_should_be(self):
-        # 16 active fit the 16-row sub-batch, 17 need the 128-row one, 129 the whole batch.
+        # None active computes nothing, 16 fit the 16-row sub-batch, 17 need the 128-row one,
+        # 129 the whole batch.
         gated = where_active(arm.dls_step, FRACTIONS)
         jaxpr = jax.make_jaxpr(jax.vmap(gated, in_axes=CFG_AXIS))(
             *_inputs(jax.random.key(0), (1024,), 0.0)[:4], A
         )
         (switch,) = [e for e in _eqns(jaxpr.jaxpr) if e.primitive.name == "cond"]
-        assert len(switch.params["branches"]) == 3  # 16 rows, 128 rows, all 1024
+        assert len(switch.params["branches"]) == 4  # none, 16 rows, 128 rows, all 1024
+        nobody = switch.params["branches"][0].jaxpr
+        assert not nobody.eqns or {e.primitive.name for e in nobody.eqns} <= {"broadcast_in_dim"}
         _, q, gripper, goal = _inputs(jax.random.key(1), (1024,), 0.0)
         ref_fn = _batched(_reference, 1)
         gated_fn = _batched(gated, 1)
         order = jax.random.permutation(jax.random.key(8), 1024)
-        for count in (16, 17, 128, 129):
+        for count in (0, 1, 16, 17, 128, 129):
             active = jnp.zeros(1024, bool).at[order[:count]].set(True)
             np.testing.assert_array_equal(
                 gated_fn(active, q, gripper, goal, A), ref_fn(active, q, gripper, goal, A)

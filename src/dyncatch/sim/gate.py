@@ -98,16 +98,22 @@ def _flat_gate(fn: Callable, treedef, batched: tuple[bool, ...], fractions) -> C
             out,
         )
 
+    def nobody(active, leaves):
+        shapes = jax.eval_shape(partial(everyone, active, leaves))
+        return jax.tree.map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
+
     @custom_vmap
     def gate(active, *leaves):
         sizes = compact_sizes(active.shape[0], fractions)
-        branches = [partial(compact, active, leaves, k) for k in sizes]
-        branches.append(partial(everyone, active, leaves))
-        if len(branches) == 1:
+        if not sizes:
             return everyone(active, leaves)
-        # The smallest sub-batch that holds every active environment, else the whole batch.
+        # Nothing when no environment is active, else the smallest sub-batch that holds every
+        # active one, else the whole batch.
+        branches = [partial(nobody, active, leaves)]
+        branches += [partial(compact, active, leaves, k) for k in sizes]
+        branches.append(partial(everyone, active, leaves))
         count = jnp.sum(active, dtype=jnp.int32)
-        tier = sum((count > k).astype(jnp.int32) for k in sizes)
+        tier = sum((count > k).astype(jnp.int32) for k in (0, *sizes))
         return jax.lax.switch(tier, branches)
 
     @gate.def_vmap

@@ -29,9 +29,11 @@ def _select(pred: jax.Array, on_true, on_false):
 
 
 def _fresh_episode(key_data: jax.Array, env: Environment, impl):
-    """A new episode and its first observation, with keys as raw data (``sim.gate``
-    scatters plain arrays)."""
-    state = env.reset(jax.random.wrap_key_data(key_data, impl=impl))
+    """A new episode and its first observation from the finished episode's last key, as raw
+    data (``sim.gate`` gathers and scatters plain arrays); the key is folded here, so only
+    the environments that reset pay for it."""
+    key = jax.random.fold_in(jax.random.wrap_key_data(key_data, impl=impl), _RESET_STREAM)
+    state = env.reset(key)
     return jax.tree.map(_key_data, state), env.observe(state)
 
 
@@ -51,7 +53,7 @@ def auto_reset_step_with_final(state, action, env: Environment):
     """``auto_reset_step`` that also returns the finished episode's last state (the state
     after the step, before any reset), for inputs with a carry (``rl.methods.MethodObs``)."""
     next_state, obs, reward, done, info = env.step(state, action)
-    key = jax.random.key_data(jax.random.fold_in(next_state.key, _RESET_STREAM))
+    key = jax.random.key_data(next_state.key)
     fresh_episode = partial(_fresh_episode, impl=jax.random.key_impl(next_state.key))
     fresh, fresh_obs = where_active(fresh_episode, RESET_COMPACT_FRACTIONS)(done, key, env)
     fresh = jax.tree.map(_rewrap_key, fresh, next_state)
