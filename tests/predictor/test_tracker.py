@@ -103,10 +103,18 @@ def test_on_circle_targets_the_50hz_position_error_is_below_5_cm(circle):
 
 def test_uncertainty_grows_while_unseen_and_shrinks_at_a_sighting(circle):
     tracker, params, held = circle
-    bins = error_by_time_since_sighting(tracker, params, held)
-    stds = [b["pos_std_m"] for b in bins if b["hi_s"] <= 2.0 and b["samples"] >= 50]
-    assert len(stds) >= 6
-    assert all(b > a for a, b in zip(stds, stds[1:], strict=False)), stds
+    bins = [b for b in error_by_time_since_sighting(tracker, params, held) if b["samples"] >= 50]
+    # Within a camera period (the next frame is due) the spread rises bin by bin; after a
+    # missed frame (1-2 s unseen) it is above all of those. Not bin by bin beyond the period:
+    # over 5 data seeds at this budget the longer-gap bins dipped in 4 (0.375 then 0.358 m at
+    # 1-1.5 and 1.5-2 s, also with 4x the updates). An assertion over every bin up to 2 s
+    # passed on one simulator random stream by chance and failed on the next (2026-12-02).
+    period_s = 1.0 / WorldCfg().sensor.rate_hz
+    within = [b["pos_std_m"] for b in bins if b["hi_s"] <= period_s + 1e-9]
+    unseen = [b["pos_std_m"] for b in bins if b["lo_s"] >= 1.0 and b["hi_s"] <= 2.0]
+    assert len(within) >= 4 and len(unseen) >= 1
+    assert all(b > a for a, b in zip(within, within[1:], strict=False)), within
+    assert min(unseen) > max(within), (within, unseen)
     std = per_sample(tracker, params, held)["pos_std_m"]
     tau, env = held.since_sighting_s, held.env_index
     # A sighting: the clock restarts within one episode. Where the estimate was already at

@@ -45,6 +45,7 @@ from dyncatch.sim.api import Environment, as_env
 from dyncatch.sim.base import clip_command
 from dyncatch.sim.behaviors import get_behavior
 from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.draws import step_draws
 from dyncatch.sim.env import finish_step
 from dyncatch.sim.scenes import get_scene
 from dyncatch.sim.state import EnvState
@@ -71,12 +72,14 @@ def check_world(world: WorldCfg, fullbody: FullBodyCfg) -> None:
 def plan_target(state: EnvState, action: jax.Array, cfg: WorldCfg):
     """The head of ``sim.env.step`` without the base: ``(command (3,), target after the
     step, target xy before each sub-step and after the last (n_sub + 1, 2), next key,
-    camera key)``, positions in ``state``'s frame."""
+    camera noise (2,))``, positions in ``state``'s frame."""
     behavior = get_behavior(cfg.target.behavior)
-    key, _, k_behavior, k_sense = jax.random.split(state.key, 4)
+    draws = step_draws(state.key)
     dt_s = cfg.episode.dt_s
     n_sub = cfg.episode.physics_substeps
-    heading, behavior_state = behavior.desired_heading(state.target, state.robot, cfg, k_behavior)
+    heading, behavior_state = behavior.desired_heading(
+        state.target, state.robot, cfg, draws.behavior_key
+    )
     target = steer(state.target.replace(behavior_state=behavior_state), heading, cfg.target, dt_s)
     xys = [target.xy_m]
     for _ in range(n_sub):
@@ -90,14 +93,14 @@ def plan_target(state: EnvState, action: jax.Array, cfg: WorldCfg):
             False,
         )
         xys.append(target.xy_m)
-    return clip_command(action, cfg.base), target, jnp.stack(xys), key, k_sense
+    return clip_command(action, cfg.base), target, jnp.stack(xys), draws.next_key, draws.sense_noise
 
 
-def finish_measured(state: EnvState, measured: dict, target, best_err, key, k_sense, cfg):
+def finish_measured(state: EnvState, measured: dict, target, best_err, key, sense_noise, cfg):
     """``finish_step`` with the robot replaced by ``measured`` (``RobotState``'s fields,
     positions in ``state``'s frame)."""
     robot = state.robot.replace(**measured)
-    return finish_step(state, robot, target, best_err, key, k_sense, cfg)
+    return finish_step(state, robot, target, best_err, key, sense_noise, cfg)
 
 
 _plan = jax.jit(jax.vmap(plan_target, in_axes=(0, 0, None)))
@@ -226,7 +229,7 @@ def run_fullbody_episodes(
             break
         keys = jax.random.split(jax.random.fold_in(k_act, t), n)
         carry, action = act(carry, state, obs, keys)
-        command, target, target_xy, next_key, k_sense = _plan(state, action, world)
+        command, target, target_xy, next_key, sense_noise = _plan(state, action, world)
         command, target_xy = np.asarray(command, float), np.asarray(target_xy, float)
         origin = np.asarray(state.origin_xy_m, float)
         best = np.full(n, np.inf)
@@ -240,7 +243,7 @@ def run_fullbody_episodes(
         measured = jax.tree.map(lambda *x: jnp.asarray(np.stack(x), jnp.float32), *measured)
         best = jnp.asarray(best, jnp.float32)
         state, obs, reward, now_done, info = _finish(
-            state, measured, target, best, next_key, k_sense, world
+            state, measured, target, best, next_key, sense_noise, world
         )
         live = ~done
         got = np.asarray(info["success"])

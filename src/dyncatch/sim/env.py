@@ -18,6 +18,7 @@ from dyncatch.sim.arm import arm_substep, gripper_in_base, stow_substep
 from dyncatch.sim.base import add_gait_noise, base_substep, clip_command
 from dyncatch.sim.behaviors import get_behavior
 from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.draws import step_draws
 from dyncatch.sim.frame import recentre
 from dyncatch.sim.gate import where_active
 from dyncatch.sim.geometry import bearing, rotate, world_to_body
@@ -54,6 +55,17 @@ def _target_xyz_at(target_xy, cfg: WorldCfg):
 
 def _catch_point(gripper_xyz_m, cfg: WorldCfg):
     return gripper_xyz_m - jnp.array([0.0, 0.0, cfg.arm.catch_offset_m])
+
+
+def _catch_error_at(gripper_base, robot_xy, robot_yaw, target_xy, cfg: WorldCfg):
+    """``catch_error_m`` of the gripper at ``gripper_base`` (3,) on a base at ``robot_xy``,
+    ``robot_yaw``, written per component: as a norm over a (3,) axis XLA:CPU compiles it to
+    a reduction that recomputes the forward kinematics feeding it for each component."""
+    c, s = jnp.cos(robot_yaw), jnp.sin(robot_yaw)
+    dx = target_xy[0] - (robot_xy[0] + c * gripper_base[0] - s * gripper_base[1])
+    dy = target_xy[1] - (robot_xy[1] + s * gripper_base[0] + c * gripper_base[1])
+    dz = cfg.target.height_m - (gripper_base[2] - cfg.arm.catch_offset_m)
+    return jnp.sqrt(dx * dx + dy * dy + dz * dz)
 
 
 def catch_error_m(gripper_xyz_m: jax.Array, target: TargetState, cfg: WorldCfg) -> jax.Array:
@@ -184,9 +196,7 @@ def _arm_along(q, robot_xy, robot_yaw, target_xy, cfg: WorldCfg, dt_s, reach: bo
         q, best_err = carry
         xy, yaw, txy = pose
         gripper_base = gripper_in_base(q, cfg.arm, cfg.base)
-        gripper = _gripper_world_at(xy, yaw, gripper_base)
-        err = jnp.linalg.norm(_target_xyz_at(txy, cfg) - _catch_point(gripper, cfg))
-        best_err = jnp.minimum(best_err, err)
+        best_err = jnp.minimum(best_err, _catch_error_at(gripper_base, xy, yaw, txy, cfg))
         if reach:
             goal_base, active = _arm_goal(xy, yaw, txy, cfg)
             q = arm_substep(q, gripper_base, goal_base, active, cfg.arm, dt_s)
@@ -239,14 +249,14 @@ def step(state: EnvState, action: jax.Array, cfg: WorldCfg):
     behavior = get_behavior(cfg.target.behavior)
     scene = get_scene(cfg.scene.name)
     obstacles = obstacles_in_play(state, cfg)
-    key, k_gait, k_behavior, k_sense = jax.random.split(state.key, 4)
+    draws = step_draws(state.key)
     dt_s = cfg.episode.dt_s
     n_sub = cfg.episode.physics_substeps
     command = clip_command(action, cfg.base)
 
     terrain = None if scene.terrain is None else scene.terrain(cfg)
-    robot = add_gait_noise(state.robot, jax.random.normal(k_gait, (3,)), cfg.base, terrain)
-    heading, behavior_state = behavior.desired_heading(state.target, robot, cfg, k_behavior)
+    robot = add_gait_noise(state.robot, draws.gait_noise, cfg.base, terrain)
+    heading, behavior_state = behavior.desired_heading(state.target, robot, cfg, draws.behavior_key)
     if obstacles is not None and not behavior.reflects_off_walls:
         heading = free_heading(
             obstacles,
@@ -286,7 +296,7 @@ def step(state: EnvState, action: jax.Array, cfg: WorldCfg):
     gripper = gripper_world(robot, gripper_in_base(q, cfg.arm, cfg.base))
     best_err = jnp.minimum(best_err, catch_error_m(gripper, target, cfg))
     robot = robot.replace(gripper_xyz_m=gripper)
-    return finish_step(state, robot, target, best_err, key, k_sense, cfg)
+    return finish_step(state, robot, target, best_err, draws.next_key, draws.sense_noise, cfg)
 
 
 def finish_step(
@@ -295,13 +305,14 @@ def finish_step(
     target: TargetState,
     best_err: jax.Array,
     key: jax.Array,
-    k_sense: jax.Array,
+    sense_noise: jax.Array,
     cfg: WorldCfg,
 ):
     """The end of ``step`` once the bodies have moved (shared with other physics backends,
     ``dyncatch.fullbody.catch``): the catch from ``best_err`` (the step's smallest
     catch-point error), the camera, the reward, the frame and the episode's end.
-    ``robot`` and ``target`` are in ``state``'s frame; ``key`` becomes the next state's key."""
+    ``robot`` and ``target`` are in ``state``'s frame; ``key`` becomes the next state's key and
+    ``sense_noise`` (2,) is the camera's standard-normal noise (``sim.draws``)."""
     obstacles = obstacles_in_play(state, cfg)
     dt_s = cfg.episode.dt_s
     success = best_err <= cfg.arm.catch_radius_m
@@ -311,7 +322,7 @@ def finish_step(
         robot,
         target,
         step_count,
-        jax.random.normal(k_sense, (2,)),
+        sense_noise,
         cfg,
         _line_of_sight(obstacles, robot, target),
     )
