@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 TWO_PI = 2.0 * jnp.pi
 
@@ -32,3 +33,12 @@ def bearing(from_xy: jax.Array, from_yaw_rad: jax.Array, to_xy: jax.Array) -> ja
 
 def unit(angle_rad: jax.Array) -> jax.Array:
     return jnp.stack([jnp.cos(angle_rad), jnp.sin(angle_rad)], axis=-1)
+
+
+def fan(angle_rad: jax.Array, offsets_rad) -> jax.Array:
+    """``unit(angle_rad + offsets_rad)`` (N, 2) for fixed ``offsets_rad`` (N,), a numpy
+    array: one cosine and one sine of ``angle_rad`` rotate the offsets' constant unit
+    vectors, instead of a pair per direction (equal to float rounding)."""
+    offsets = np.asarray(offsets_rad, np.float64)
+    fixed = np.stack([np.cos(offsets), np.sin(offsets)], axis=-1).astype(np.float32)
+    return rotate(jnp.asarray(fixed), angle_rad)

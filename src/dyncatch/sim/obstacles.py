@@ -19,6 +19,8 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
+from dyncatch.sim.geometry import fan
+
 _INF = np.float32(np.inf)
 """A numpy constant: one made with jnp at import would start a JAX backend before
 ``utils.jax_setup.setup_jax`` sets XLA's flags."""
@@ -61,6 +63,13 @@ def no_obstacles() -> Obstacles:
     )
 
 
+def _dot2(a: jax.Array, b: jax.Array) -> jax.Array:
+    """a . b over the last axis of size 2, broadcast (...): written out, because XLA:CPU
+    compiles a product or sum over an axis of 2 to a batched matrix product or a reduction
+    that the element-wise work around it cannot fuse with (docs/performance.md)."""
+    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1]
+
+
 def nearest_image(offset_m: jax.Array, period_m: jax.Array) -> jax.Array:
     """Offsets (..., 2) reduced to the nearest copy under the period (unchanged if 0)."""
     periodic = period_m > 0.0
@@ -79,7 +88,7 @@ def signed_distance(obs: Obstacles, xy_m: jax.Array, inflate_m=0.0):
     q = -relative(obs, xy_m)  # the point relative to each centre
     h = obs.half_m
     v = q - jnp.clip(q, -h, h)
-    dist2 = jnp.sum(v * v, axis=-1)
+    dist2 = _dot2(v, v)
     outside = dist2 > 0.0
     dist = jnp.sqrt(jnp.where(outside, dist2, 1.0))
     # Inside a box's core (or at a cylinder's axis): leave by the nearest side.
@@ -121,7 +130,8 @@ def ray_intervals(obs: Obstacles, origin_xy_m: jax.Array, dirs: jax.Array, infla
     inside = (jnp.abs(rel) <= h)[..., :]
     lo = jnp.where(parallel, jnp.where(inside, -_INF, _INF), jnp.minimum(t1, t2))
     hi = jnp.where(parallel, jnp.where(inside, _INF, -_INF), jnp.maximum(t1, t2))
-    tb_in, tb_out = jnp.max(lo, axis=-1), jnp.min(hi, axis=-1)
+    tb_in = jnp.maximum(lo[..., 0], lo[..., 1])
+    tb_out = jnp.minimum(hi[..., 0], hi[..., 1])
     hit_b = tb_in <= tb_out
     tb_in, tb_out = jnp.where(hit_b, tb_in, _INF), jnp.where(hit_b, tb_out, -_INF)
     box = obs.is_box[None]
@@ -132,8 +142,8 @@ def _cylinder_intervals(obs: Obstacles, rel: jax.Array, dirs: jax.Array, inflate
     """(t_in, t_out) (N, K) of rays from the origin along ``dirs`` (N, 2) through cylinders
     at ``rel`` (K, 2) from it: |t u - rel| = r."""
     r = obs.radius_m + inflate_m
-    b = dirs @ rel.T  # (N, K)
-    disc = b * b - (jnp.sum(rel * rel, axis=-1) - r * r)
+    b = _dot2(dirs[:, None, :], rel[None])  # (N, K)
+    disc = b * b - (_dot2(rel, rel) - r * r)
     sq = jnp.sqrt(jnp.maximum(disc, 0.0))
     hit = disc >= 0.0
     return jnp.where(hit, b - sq, _INF), jnp.where(hit, b + sq, -_INF)
@@ -178,10 +188,10 @@ def free_heading(
     radius lies within ``lookahead_m`` along it (heading away from or along a surface it
     touches is free). If none is, the desired heading is kept.
     """
-    k = jnp.arange(num_directions)
-    steps = jnp.where(k % 2 == 1, (k + 1) // 2, -(k // 2))
-    cand = desired_rad + steps * (2.0 * jnp.pi / num_directions)
-    dirs = jnp.stack([jnp.cos(cand), jnp.sin(cand)], axis=-1)
+    k = np.arange(num_directions)
+    offsets = np.where(k % 2 == 1, (k + 1) // 2, -(k // 2)) * (2.0 * np.pi / num_directions)
+    cand = desired_rad + jnp.asarray(offsets, jnp.float32)
+    dirs = fan(desired_rad, offsets)
     t_in, t_out = ray_intervals(obs, xy_m, dirs, radius_m)
     blocked = jnp.any((t_out > 1e-4) & (t_in < lookahead_m), axis=-1)
     first = jnp.argmax(~blocked)
@@ -192,7 +202,7 @@ def reflect_heading(heading_rad: jax.Array, touched: jax.Array) -> jax.Array:
     """A heading mirrored off every surface it moves into (``touched`` normals (K, 2), zero
     where none), as the bounce target meets an obstacle."""
     u = jnp.stack([jnp.cos(heading_rad), jnp.sin(heading_rad)])
-    into = jnp.minimum(touched @ u, 0.0)  # (K,)
+    into = jnp.minimum(_dot2(touched, u), 0.0)  # (K,)
     u = u - 2.0 * jnp.sum(into[:, None] * touched, axis=0)
     hit = jnp.any(into < 0.0)
     return jnp.where(hit, jnp.arctan2(u[1], u[0]), heading_rad)

@@ -5,16 +5,22 @@ from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from dyncatch.sim.config import WorldCfg
-from dyncatch.sim.geometry import unit
+from dyncatch.sim.geometry import fan
 from dyncatch.sim.obstacles import Obstacles, nearest_m, ray_distances
 from dyncatch.sim.scenes import get_scene
 
 
+def ray_offsets_rad(num_rays: int) -> np.ndarray:
+    """The rays' angles from the heading, (num_rays,): evenly spread, the first along it."""
+    return 2.0 * np.pi * np.arange(num_rays) / num_rays
+
+
 def ray_angles_rad(yaw_rad: jax.Array, num_rays: int) -> jax.Array:
-    """World angles of the rays, (num_rays,): evenly spread, the first along the heading."""
-    return yaw_rad + 2.0 * jnp.pi * jnp.arange(num_rays) / num_rays
+    """World angles of the rays, (num_rays,)."""
+    return yaw_rad + jnp.asarray(ray_offsets_rad(num_rays), jnp.float32)
 
 
 def square_exit_m(xy_m: jax.Array, dirs: jax.Array, size_m: jax.Array) -> jax.Array:
@@ -44,7 +50,7 @@ def range_scan(
     scene = get_scene(cfg.scene.name)
     if not scene.walls and obstacles is None:
         return jnp.full((n,), cap, jnp.float32)
-    dirs = unit(ray_angles_rad(yaw_rad, n))
+    dirs = fan(yaw_rad, ray_offsets_rad(n))
     dist = jnp.full((n,), jnp.inf, jnp.float32)
     if scene.walls:
         dist = square_exit_m(world_xy_m, dirs, cfg.arena.size_m)
