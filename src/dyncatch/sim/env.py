@@ -193,27 +193,34 @@ def _arm_along(q, robot_xy, robot_yaw, target_xy, cfg: WorldCfg, dt_s, reach: bo
     folds. Returns the joints and the smallest catch-point error over the sub-steps."""
 
     def substep(carry, pose):
-        q, best_err = carry
-        xy, yaw, txy = pose
-        gripper_base = gripper_in_base(q, cfg.arm, cfg.base)
-        best_err = jnp.minimum(best_err, _catch_error_at(gripper_base, xy, yaw, txy, cfg))
-        if reach:
-            goal_base, active = _arm_goal(xy, yaw, txy, cfg)
-            q = arm_substep(q, gripper_base, goal_base, active, cfg.arm, dt_s)
-        else:
-            q = stow_substep(q, cfg.arm, dt_s)
-        return (q, best_err), None
+        return _arm_substep(carry, pose, cfg, dt_s, reach), None
 
     init = (q, jnp.full((), jnp.inf))
     return jax.lax.scan(substep, init, (robot_xy, robot_yaw, target_xy))[0]
 
 
-def _arm_over_step(q, robot_xy, robot_yaw, target_xy, cfg: WorldCfg, dt_s):
+def _arm_substep(carry, pose, cfg: WorldCfg, dt_s, reach: bool):
+    """One sub-step of ``_arm_along``: ``carry`` is (joints, smallest error so far)."""
+    q, best_err = carry
+    xy, yaw, txy = pose
+    gripper_base = gripper_in_base(q, cfg.arm, cfg.base)
+    best_err = jnp.minimum(best_err, _catch_error_at(gripper_base, xy, yaw, txy, cfg))
+    if reach:
+        goal_base, active = _arm_goal(xy, yaw, txy, cfg)
+        q = arm_substep(q, gripper_base, goal_base, active, cfg.arm, dt_s)
+    else:
+        q = stow_substep(q, cfg.arm, dt_s)
+    return q, best_err
+
+
+def _arm_over_step(q, robot_xy, robot_yaw, target_xy, cfg: WorldCfg, dt_s, folded=None):
     """``_arm_along`` with the IK paid for only where the arm is active at some sub-step:
     under ``vmap`` those environments are gathered once per control step (``sim.gate``); the
-    others fold toward the stow pose, which is what the IK's branch does for them too."""
+    others fold toward the stow pose, which is what the IK's branch does for them too.
+    ``folded`` is ``_arm_along(..., reach=False)`` where the caller has it already."""
     near = jnp.any(jax.vmap(lambda *p: _arm_goal(*p, cfg)[1])(robot_xy, robot_yaw, target_xy))
-    folded = _arm_along(q, robot_xy, robot_yaw, target_xy, cfg, dt_s, reach=False)
+    if folded is None:
+        folded = _arm_along(q, robot_xy, robot_yaw, target_xy, cfg, dt_s, reach=False)
     reaching = where_active(partial(_arm_along, reach=True), arm.IK_COMPACT_FRACTIONS)(
         near, q, robot_xy, robot_yaw, target_xy, cfg, dt_s
     )
@@ -274,9 +281,11 @@ def step(state: EnvState, action: jax.Array, cfg: WorldCfg):
     # measured 5.2 -> 3.5 ms per step of 4096 environments against the unrolled sub-steps
     # with a gate in each, and a smaller program to compile (docs/performance.md).
     def bodies(carry, _):
-        robot, target = carry
+        robot, target, folding = carry
         pose = (robot.xy_m, robot.yaw_rad, target.xy_m)
-        carry = _bodies_substep(
+        # The folding arm rides along in the same loop (it reads only the poses).
+        folding = _arm_substep(folding, pose, cfg, dt_s / n_sub, reach=False)
+        robot, target = _bodies_substep(
             robot,
             target,
             command,
@@ -286,12 +295,15 @@ def step(state: EnvState, action: jax.Array, cfg: WorldCfg):
             behavior.reflects_off_walls,
             obstacles,
         )
-        return carry, pose
+        return (robot, target, folding), pose
 
-    (robot, target), (robot_xy, robot_yaw, target_xy) = jax.lax.scan(
-        bodies, (robot, target), length=n_sub
+    init = (robot, target, (robot.arm_q_rad, jnp.full((), jnp.inf)))
+    (robot, target, folded), (robot_xy, robot_yaw, target_xy) = jax.lax.scan(
+        bodies, init, length=n_sub
     )
-    q, best_err = _arm_over_step(robot.arm_q_rad, robot_xy, robot_yaw, target_xy, cfg, dt_s / n_sub)
+    q, best_err = _arm_over_step(
+        robot.arm_q_rad, robot_xy, robot_yaw, target_xy, cfg, dt_s / n_sub, folded
+    )
     robot = robot.replace(arm_q_rad=q)
     gripper = gripper_world(robot, gripper_in_base(q, cfg.arm, cfg.base))
     best_err = jnp.minimum(best_err, catch_error_m(gripper, target, cfg))
