@@ -128,12 +128,15 @@ def test_uncertainty_grows_while_unseen_and_shrinks_at_a_sighting(circle):
 @pytest.mark.extended
 def test_held_out_reactive_coverage95_is_calibrated_and_halves_the_hold_error():
     """The issue's targets at 1.8 m/s: coverage95 in [0.90, 0.98] and position_error_m <=
-    0.5 x hold_position_error_m (1 M steps, the default tracker; about 1 min on 2 cores)."""
+    0.5 x hold_position_error_m (2 M steps, the budget docs/tracker.md measured them at, the
+    default tracker). At 1 M steps coverage95 sits on the band's edge: 0.906, 0.917, 0.893
+    over data seeds 0, 1, 2 on one simulator random stream and 0.898, 0.893, 0.894 on the
+    next; at 2 M 0.930, 0.919, 0.929 (2026-12-02)."""
     world = WorldCfg().with_behavior("reactive").with_speed(1.8)
     tracker = Tracker.for_world(TrackerCfg(), world)
     data = TrackerDataCfg()
     train, _ = collect_track(
-        jax.random.key(0), world, data.collect, tracker, 1_000_000, data.sample_every_steps
+        jax.random.key(0), world, data.collect, tracker, 2_000_000, data.sample_every_steps
     )
     held, _ = collect_track(jax.random.key(1), world, data.collect, tracker, 100_000)
     params, _ = fit_tracker(tracker, TrackerTrainCfg(), train, len(train.x), jax.random.key(2))
