@@ -242,7 +242,7 @@ def _interleaved_physics(robot, target, command, cfg, n_sub, dt_s):
         goal_base, active = sim_env._arm_goal(robot.xy_m, robot.yaw_rad, target.xy_m, cfg)
         q = arm.arm_substep(robot.arm_q_rad, gripper_base, goal_base, active, cfg.arm, dt_s)
         robot, target = sim_env._bodies_substep(
-            robot.replace(arm_q_rad=q), target, command, jnp.zeros(2), cfg, dt_s, False, None
+            robot.replace(arm_q_rad=q), target, command, jnp.zeros(2), cfg, dt_s, False, None, None
         )
     return robot.arm_q_rad, best_err, robot.xy_m, target.xy_m
 
@@ -253,7 +253,7 @@ def _bodies_then_arm(robot, target, command, cfg, n_sub, dt_s):
     for _ in range(n_sub):
         poses.append((robot.xy_m, robot.yaw_rad, target.xy_m))
         robot, target = sim_env._bodies_substep(
-            robot, target, command, jnp.zeros(2), cfg, dt_s, False, None
+            robot, target, command, jnp.zeros(2), cfg, dt_s, False, None, None
         )
     xy, yaw, txy = (jnp.stack(p) for p in zip(*poses, strict=True))
     q, best_err = sim_env._arm_over_step(robot.arm_q_rad, xy, yaw, txy, cfg, dt_s)

@@ -4,6 +4,7 @@ branch-free and the gaps between obstacles hold by construction."""
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import jax
@@ -62,6 +63,27 @@ def woods_layout(key: jax.Array, cfg: WorldCfg) -> Obstacles:
     return Obstacles(centre, jnp.zeros((n * n, 2), jnp.float32), radius, period, boxes=False)
 
 
+def step_reach_m(cfg: WorldCfg) -> float:
+    """The farthest an obstacle's surface can be from a body's centre at the start of a
+    control step and still be touched during it: the footprint radius plus the top speed
+    times the step, the larger of the robot's and the target's (0.36 + 2.24 x 0.02 m by
+    default). Gaps between obstacles wider than twice this leave one obstacle in reach, so
+    the step tests each body against its nearest one (``sim.env``)."""
+    b, t, dt_s = cfg.base, cfg.target, cfg.episode.dt_s
+    robot_mps = math.hypot(max(b.max_forward_mps, b.max_backward_mps), b.max_lateral_mps)
+    return max(b.radius_m + robot_mps * dt_s, t.radius_m + t.speed_max_mps * dt_s)
+
+
+def _gap_check(gap_m: float, field: str, cfg: WorldCfg) -> tuple[bool, str, str]:
+    reach = step_reach_m(cfg)
+    return (
+        gap_m > 2 * reach,
+        field,
+        f"must exceed {2 * reach:.3f} m, twice a body's footprint radius plus the farthest it "
+        "moves in a control step: the step tests each body against its nearest obstacle only",
+    )
+
+
 def room_checks(cfg: WorldCfg, count: int) -> list[tuple[bool, str, str]]:
     """The room's constants can hold ``count`` obstacles with their gaps."""
     r, body = cfg.room, cfg.base.radius_m
@@ -74,9 +96,10 @@ def room_checks(cfg: WorldCfg, count: int) -> list[tuple[bool, str, str]]:
             "room.grid_cells",
             f"the grid needs a cell for each of the {count} obstacles",
         ),
+        _gap_check(r.gap_m, "room.gap_m", cfg),
         (
-            r.gap_m > 2 * body and r.wall_clearance_m > 2 * body,
-            "room.gap_m/wall_clearance_m",
+            r.wall_clearance_m > 2 * body,
+            "room.wall_clearance_m",
             f"must exceed the robot's footprint diameter {2 * body:.2f} m (it could be wedged)",
         ),
         (
@@ -97,10 +120,10 @@ def room_checks(cfg: WorldCfg, count: int) -> list[tuple[bool, str, str]]:
 
 def woods_checks(cfg: WorldCfg) -> list[tuple[bool, str, str]]:
     """The woods' constants keep trunks apart and the tile wide enough for every reach."""
-    w, body = cfg.woods, cfg.base.radius_m
+    w = cfg.woods
     reach = max(cfg.scene.scan_range_m, cfg.sensor.range_m) + w.trunk_radius_max_m
     return [
-        (w.gap_m > 2 * body, "woods.gap_m", f"must exceed the footprint diameter {2 * body:.2f} m"),
+        _gap_check(w.gap_m, "woods.gap_m", cfg),
         (
             0 < w.trunk_radius_min_m <= w.trunk_radius_max_m,
             "woods.trunk_radius_*",
