@@ -190,8 +190,8 @@ def _reachable_obstacles(obstacles, robot_xy, target_xy):
     ``layouts.step_reach_m``), so no other obstacle can be touched and its push-out would be
     exactly zero; the sub-steps, run for both bodies four times a step, test one obstacle
     instead of all (the woods hold 25)."""
-    if obstacles is None:
-        return None, None
+    if obstacles is None or obstacles.radius_m.shape[-1] == 0:  # room_0 has none
+        return obstacles, obstacles
     return nearest(obstacles, robot_xy), nearest(obstacles, target_xy)
 
 
