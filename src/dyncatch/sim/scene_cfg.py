@@ -27,8 +27,10 @@ class RoomCfg:
     wall_clearance_m: float = 1.0
     """Smallest gap between an obstacle and a wall."""
     gap_m: float = 1.0
-    """Smallest gap between two obstacles; wider than the robot's footprint circle (0.72 m)
-    so the robot is never wedged between two (a body touches one obstacle at a time)."""
+    """Smallest gap between two obstacles; wider than twice a body's reach in a control step
+    (0.81 m: the robot's 0.72 m footprint plus its top speed for 0.02 s each side,
+    ``layouts.step_reach_m``), so the robot is never wedged between two and a body can reach
+    only its nearest obstacle within a step."""
     box_probability: float = 0.5
     """Chance that an obstacle is a box (else a cylinder)."""
     box_half_min_m: float = 0.25
