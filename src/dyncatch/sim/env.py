@@ -45,19 +45,12 @@ draw exactly what they drew before obstacles existed."""
 
 def gripper_world(robot: RobotState, gripper_base: jax.Array) -> jax.Array:
     """Gripper point in the world, (3,), from its base-frame position."""
-    return _gripper_world_at(robot.xy_m, robot.yaw_rad, gripper_base)
-
-
-def _gripper_world_at(robot_xy, robot_yaw, gripper_base):
-    return jnp.concatenate([robot_xy + rotate(gripper_base[:2], robot_yaw), gripper_base[2:]])
+    xy = robot.xy_m + rotate(gripper_base[:2], robot.yaw_rad)
+    return jnp.concatenate([xy, gripper_base[2:]])
 
 
 def target_xyz(target: TargetState, cfg: WorldCfg) -> jax.Array:
-    return _target_xyz_at(target.xy_m, cfg)
-
-
-def _target_xyz_at(target_xy, cfg: WorldCfg):
-    return jnp.concatenate([target_xy, jnp.full((1,), cfg.target.height_m)])
+    return jnp.concatenate([target.xy_m, jnp.full((1,), cfg.target.height_m)])
 
 
 def _catch_point(gripper_xyz_m, cfg: WorldCfg):

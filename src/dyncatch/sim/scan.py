@@ -18,11 +18,6 @@ def ray_offsets_rad(num_rays: int) -> np.ndarray:
     return 2.0 * np.pi * np.arange(num_rays) / num_rays
 
 
-def ray_angles_rad(yaw_rad: jax.Array, num_rays: int) -> jax.Array:
-    """World angles of the rays, (num_rays,)."""
-    return yaw_rad + jnp.asarray(ray_offsets_rad(num_rays), jnp.float32)
-
-
 def square_exit_m(xy_m: jax.Array, dirs: jax.Array, size_m: jax.Array) -> jax.Array:
     """Distance from a point inside the square [0, size]^2 to its boundary along unit
     directions ``dirs`` (N, 2), (N,)."""
