@@ -95,4 +95,5 @@ def obstacles(boxes=(), cylinders=(), period_m: float = 0.0):
         jnp.asarray(half, f32).reshape(-1, 2),
         jnp.asarray(radius, f32),
         jnp.asarray(period_m, f32),
+        jnp.zeros(2, f32),
     )

@@ -5,13 +5,20 @@ from __future__ import annotations
 
 import math
 
+import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
+from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.layouts import woods_layout
 from dyncatch.sim.obstacles import (
+    cell_block,
     free_heading,
     line_of_sight,
+    nearest,
     nearest_m,
+    own_cell,
     push_out,
     ray_distances,
     reflect_heading,
@@ -149,3 +156,63 @@ def test_a_cylinders_only_layout_skips_the_box_test_with_the_same_result():
     only = ray_distances(trees.replace(boxes=False), jnp.array([0.3, -0.2]), dirs)
     np.testing.assert_array_equal(only, both)
     assert np.isfinite(np.asarray(both)).sum() >= 3
+
+
+def _woods_points(seed: int, count: int = 4000):
+    """A woods layout seen from a frame moved by a random offset (so the grid's corner is
+    not at the origin), and random points over two tiles in that frame."""
+    cfg = WorldCfg().for_scene("woods_plane")
+    k_layout, k_shift, k_points = jax.random.split(jax.random.key(seed), 3)
+    trees = woods_layout(k_layout, cfg).shifted(jax.random.uniform(k_shift, (2,), maxval=1e3))
+    tile = cfg.woods.tile_m
+    points = jax.random.uniform(k_points, (count, 2), minval=-tile, maxval=tile)
+    return cfg, trees, points
+
+
+def _surface_m(trees, points):
+    """(P, K) distance from each point to each trunk's surface."""
+    return jax.vmap(lambda p: signed_distance(trees, p)[0])(points)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_points_own_cell_holds_every_trunk_within_half_the_gap(seed):
+    # What the step's push-outs rely on (sim.env): a body within the gap / 2 of a trunk
+    # finds that trunk, and only it, as its own cell's, as nearest would.
+    cfg, trees, points = _woods_points(seed)
+    sd = np.asarray(_surface_m(trees, points))
+    mine = jax.vmap(lambda p: own_cell(trees, p))(points)
+    mine_sd = np.asarray(jax.vmap(lambda o, p: signed_distance(o, p)[0])(mine, points))[:, 0]
+    near = sd.min(-1) < 0.5 * cfg.woods.gap_m
+    assert near.sum() > 50
+    np.testing.assert_array_equal(mine_sd[near], sd[near].min(-1))
+    # Everywhere, no other trunk is within gap / 2 of the point.
+    other = np.where(np.isclose(sd, mine_sd[:, None]), np.inf, sd)
+    assert other.min() >= 0.5 * cfg.woods.gap_m - 1e-4
+    # And the nearest obstacle agrees wherever one is that close.
+    nearest_sd = jax.vmap(lambda p: signed_distance(nearest(trees, p), p)[0][0])(points)
+    np.testing.assert_array_equal(np.asarray(nearest_sd)[near], mine_sd[near])
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_2x2_cell_block_holds_every_trunk_the_flee_rule_can_meet(seed):
+    cfg, trees, points = _woods_points(seed)
+    sd = np.asarray(_surface_m(trees, points))
+    block = jax.vmap(lambda p: cell_block(trees, p))(points)
+    block_sd = np.asarray(jax.vmap(lambda o, p: signed_distance(o, p)[0])(block, points))
+    bound = 0.5 * (cfg.woods.spacing_m + cfg.woods.gap_m)
+    # Every trunk within (spacing + gap) / 2 of the point is in its block ...
+    for row, found in zip(sd, block_sd, strict=True):
+        close = np.sort(row[row < bound])
+        assert np.all(np.isin(close, found)), (close, found)
+    # ... and the rule turns the same way on the block as on the whole layout.
+    headings = jax.random.uniform(jax.random.key(seed + 7), (points.shape[0],), maxval=6.3)
+    a, r = cfg.avoid, cfg.target.radius_m
+
+    def rule(obs, p, h):
+        return free_heading(obs, p, h, r, a.lookahead_m, a.directions)
+
+    on_block = jax.vmap(rule)(block, points, headings)
+    on_all = jax.vmap(rule, in_axes=(None, 0, 0))(trees, points, headings)
+    turned = np.asarray(on_all) != np.asarray(headings)
+    assert turned.sum() > 20
+    np.testing.assert_array_equal(np.asarray(on_block), np.asarray(on_all))

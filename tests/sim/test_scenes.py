@@ -267,6 +267,7 @@ def test_scene_defaults_and_the_observation_size():
         ("room_4", lambda w: w.replace(room=w.room.replace(gap_m=0.5)), "room.gap_m"),
         ("room_8", lambda w: w.replace(room=w.room.replace(grid_cells=2)), "room.grid_cells"),
         ("woods_plane", lambda w: w.replace(woods=w.woods.replace(tile_cells=3)), "woods.tile"),
+        ("woods_plane", lambda w: w.replace(avoid=w.avoid.replace(lookahead_m=3.0)), "avoid.look"),
         ("woods_stairs", lambda w: w.replace(stairs=w.stairs.replace(speed_scale=1.5)), "stairs"),
         ("woods_rough", lambda w: w.replace(rough=w.rough.replace(lag_scale=0.5)), "rough.lag"),
     ],
@@ -300,12 +301,19 @@ def _every_obstacle(obstacles, robot_xy, target_xy):
     return obstacles, obstacles
 
 
+def _line_of_sight_everywhere(obstacles, robot, target, step, cfg):
+    return env._line_of_sight(obstacles, robot, target)
+
+
 @pytest.mark.parametrize(("scene", "behavior"), [("room_8", "bounce"), ("woods_plane", "reactive")])
-def test_testing_each_body_against_its_nearest_obstacle_equals_testing_all(scene, behavior):
+def test_the_steps_shortcuts_through_the_obstacles_equal_testing_all(scene, behavior):
     # The step tests each body against the one obstacle nearest it at the step's start (the
-    # gaps exceed twice a body's reach in a step); against all of them, one step from each
-    # of 6,400 states along random rollouts gives the same states, contacts included. One
-    # step each: over many steps float rounding grows where the arm's IK is ill-conditioned.
+    # gaps exceed twice a body's reach in a step); in the woods, the trunk of its own cell,
+    # the flee rule against the trunks of the 2 x 2 cells nearest the target, and the
+    # camera's line of sight only at its frames. Against all obstacles everywhere, one step
+    # from each of 6,400 states along random rollouts gives the same states, contacts
+    # included. One step each: over many steps float rounding grows where the arm's IK is
+    # ill-conditioned.
     cfg = WorldCfg().for_scene(scene).with_behavior(behavior).with_speed(1.8)
     states, *_ = random_rollout(jax.random.key(5), cfg, 32, 200)
     flat = jax.tree.map(lambda x: x.reshape(x.shape[0] * x.shape[1], *x.shape[2:]), states)
@@ -318,6 +326,8 @@ def test_testing_each_body_against_its_nearest_obstacle_equals_testing_all(scene
     nearest_only = one_step()
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(env, "_reachable_obstacles", _every_obstacle)
+        mp.setattr(env, "_flee_obstacles", lambda obstacles, xy_m: obstacles)
+        mp.setattr(env, "_line_of_sight_at_frames", _line_of_sight_everywhere)
         every = one_step()
     jax.clear_caches()
     for a, b in zip(jax.tree.leaves(nearest_only), jax.tree.leaves(every), strict=True):
@@ -327,8 +337,7 @@ def test_testing_each_body_against_its_nearest_obstacle_equals_testing_all(scene
         # (measured 1.1e-5 once in 204,800 ranges); a wrongly chosen obstacle moves a body
         # or a range by centimetres to metres.
         np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-4, atol=1e-5)
-    # Contacts happened in those steps, and not only with the layout's first obstacle (in
-    # the woods that is the trunk of the robot's own cell).
+    # Contacts happened in those steps, and not only with the layout's first obstacle.
     after, contacts = nearest_only[0], set()
     bodies = ((after.robot.xy_m, cfg.base.radius_m), (after.target.xy_m, cfg.target.radius_m))
     for xy, r in bodies:
@@ -337,6 +346,40 @@ def test_testing_each_body_against_its_nearest_obstacle_equals_testing_all(scene
         touching = sd.min(-1) < 0.01
         contacts |= set(sd[touching].argmin(-1).tolist())
     assert len(contacts) >= 3, contacts
+
+
+def test_the_flee_rule_sees_a_trunk_in_the_next_cell():
+    # A target near its cell's edge, fleeing straight at the trunk just across it: the flee
+    # rule must turn it (the trunk is within its lookahead), as it does testing every trunk,
+    # and not as it would testing its own cell's trunk only.
+    cfg = WorldCfg().for_scene("woods_plane").with_behavior("reactive").with_speed(1.8)
+    cfg = cfg.replace(target=cfg.target.replace(gamma_max_rad=0.0))  # straight away from it
+    w, r_t = cfg.woods, cfg.target.radius_m
+    n, side = w.tile_cells, w.spacing_m
+    ij = np.stack(np.meshgrid(np.arange(n), np.arange(n), indexing="xy"), -1).reshape(-1, 2)
+    centres = (ij + 0.5) * side
+    k = 2 + n * 2  # the trunk of cell (2, 2), moved near its cell's left edge
+    centres[k, 0] = 2 * side + 0.5 * w.gap_m + 0.2 + 0.05
+    trees = obstacles(cylinders=[(x, y, 0.2) for x, y in centres], period_m=n * side)
+    trees = trees.replace(grid_cells=n)
+    target_x = 2 * side - 0.05  # just inside the cell to the left
+    assert centres[k, 0] - 0.2 - r_t - target_x < 0.8 * cfg.avoid.lookahead_m
+    y = centres[k, 1]
+    s = _start(cfg, trees, robot_xy=(target_x - 4.0, y), robot_yaw=0.0, target_xy=(target_x, y))
+    s = s.replace(target=s.target.replace(heading_rad=jnp.zeros(())))
+
+    def heading(flee_obstacles):
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(env, "_flee_obstacles", flee_obstacles)
+            jax.clear_caches()
+            return float(jax.jit(lambda st: env.step(st, STILL, cfg))(s)[0].target.heading_rad)
+
+    block = heading(env._flee_obstacles)
+    every = heading(lambda o, xy_m: o)
+    own = heading(lambda o, xy_m: env.own_cell(o, xy_m))
+    jax.clear_caches()
+    assert block == every
+    assert abs(block) > 0.1 and own == 0.0
 
 
 def test_a_gap_that_leaves_two_obstacles_in_reach_is_refused():

@@ -24,16 +24,18 @@ from dyncatch.sim.gate import where_active
 from dyncatch.sim.geometry import bearing, rotate, world_to_body
 from dyncatch.sim.obstacles import (
     Obstacles,
+    cell_block,
     free_heading,
     line_of_sight,
     nearest,
     no_obstacles,
+    own_cell,
     push_out,
 )
 from dyncatch.sim.reward import reward_terms, total_reward
 from dyncatch.sim.scan import range_scan
 from dyncatch.sim.scenes import get_scene
-from dyncatch.sim.sensing import initial_sensor, sensor_tick
+from dyncatch.sim.sensing import initial_sensor, sensor_tick, takes_frame
 from dyncatch.sim.state import EnvState, Obs, RobotState, TargetState
 from dyncatch.sim.target import move, steer
 
@@ -41,6 +43,13 @@ _ROBOT_PLACEMENT_TRIES = 8
 _LAYOUT_STREAM = 0x0B5
 """The obstacle layout's key is folded from the reset key, so the scenes without obstacles
 draw exactly what they drew before obstacles existed."""
+LINE_OF_SIGHT_COMPACT_FRACTIONS = (1 / 16, 1 / 8)
+"""Under ``vmap`` the camera's line of sight through the obstacles is computed only for the
+environments that take a frame at this step (one step in 25 at 50 Hz and 2 Hz), on a compact
+sub-batch of 1/16 or 1/8 of the batch (``sim.gate``). Episodes that started together take
+their frames together (the whole batch that step, none the next 24); once catches have
+spread their phases, about 1/25 of the batch does at each step, which 1/16 holds. Results
+do not depend on it; measured in docs/performance.md ("The woods")."""
 
 
 def gripper_world(robot: RobotState, gripper_base: jax.Array) -> jax.Array:
@@ -99,6 +108,15 @@ def obstacles_in_play(state: EnvState, cfg: WorldCfg) -> Obstacles | None:
 
 def _line_of_sight(obstacles, robot: RobotState, target: TargetState):
     return None if obstacles is None else line_of_sight(obstacles, robot.xy_m, target.xy_m)
+
+
+def _line_of_sight_at_frames(obstacles, robot: RobotState, target: TargetState, step, cfg):
+    """The line of sight where the camera takes a frame at control step ``step`` (the only
+    steps ``sensing.sensor_tick`` reads it), False elsewhere."""
+    if obstacles is None:
+        return None
+    gated = where_active(line_of_sight, LINE_OF_SIGHT_COMPACT_FRACTIONS)
+    return gated(takes_frame(step, cfg), obstacles, robot.xy_m, target.xy_m)
 
 
 def reset(key: jax.Array, cfg: WorldCfg) -> EnvState:
@@ -179,13 +197,22 @@ def _bodies_substep(
 
 def _reachable_obstacles(obstacles, robot_xy, target_xy):
     """The obstacles the robot's and the target's sub-steps test: the one nearest each at the
-    step's start. The layouts' gaps exceed twice a body's reach in a step (a config check,
-    ``layouts.step_reach_m``), so no other obstacle can be touched and its push-out would be
-    exactly zero; the sub-steps, run for both bodies four times a step, test one obstacle
-    instead of all (the woods hold 25)."""
+    step's start (in a gridded layout, the woods, the one of the body's own cell, which is
+    that one whenever any is in reach: ``obstacles.own_cell``). The layouts' gaps exceed
+    twice a body's reach in a step (a config check, ``layouts.step_reach_m``), so no other
+    obstacle can be touched and its push-out would be exactly zero; the sub-steps, run for
+    both bodies four times a step, test one obstacle instead of all (the woods hold 25)."""
     if obstacles is None or obstacles.radius_m.shape[-1] == 0:  # room_0 has none
         return obstacles, obstacles
-    return nearest(obstacles, robot_xy), nearest(obstacles, target_xy)
+    pick = own_cell if obstacles.grid_cells else nearest
+    return pick(obstacles, robot_xy), pick(obstacles, target_xy)
+
+
+def _flee_obstacles(obstacles: Obstacles, xy_m):
+    """The obstacles the target's free-direction rule tests: in a gridded layout those of
+    the 2 x 2 cells nearest it, the only ones within its lookahead (a config check,
+    ``layouts.woods_checks``); elsewhere all."""
+    return cell_block(obstacles, xy_m) if obstacles.grid_cells else obstacles
 
 
 def _arm_goal(robot_xy, robot_yaw, target_xy, cfg: WorldCfg):
@@ -280,7 +307,7 @@ def step(state: EnvState, action: jax.Array, cfg: WorldCfg):
     heading, behavior_state = behavior.desired_heading(state.target, robot, cfg, draws.behavior_key)
     if obstacles is not None and not behavior.reflects_off_walls:
         heading = free_heading(
-            obstacles,
+            _flee_obstacles(obstacles, state.target.xy_m),
             state.target.xy_m,
             heading,
             cfg.target.radius_m,
@@ -355,7 +382,7 @@ def finish_step(
         step_count,
         sense_noise,
         cfg,
-        _line_of_sight(obstacles, robot, target),
+        _line_of_sight_at_frames(obstacles, robot, target, step_count, cfg),
     )
     distance = jnp.linalg.norm(target.xy_m - robot.xy_m)
     terms = reward_terms(

@@ -47,11 +47,12 @@ def room_layout(key: jax.Array, cfg: WorldCfg, count: int) -> Obstacles:
     radius = jnp.where(is_box, 0.0, radius)
     extent = jnp.where(is_box[:, None], half, radius[:, None])
     centre = _in_cells(u[:, 4:6], start + ij * cell_m, cell_m, rc.gap_m, extent)
-    return Obstacles(centre, half, radius, jnp.zeros((), jnp.float32))
+    return Obstacles(centre, half, radius, jnp.zeros((), jnp.float32), jnp.zeros(2, jnp.float32))
 
 
 def woods_layout(key: jax.Array, cfg: WorldCfg) -> Obstacles:
-    """One trunk per cell of a ``tile_cells`` x ``tile_cells`` tile, repeated over the plane."""
+    """One trunk per cell of a ``tile_cells`` x ``tile_cells`` tile, repeated over the plane
+    (a grid layout: trunk k in cell (k % n, k // n) of the tile starting at the origin)."""
     wc = cfg.woods
     n = wc.tile_cells
     cells = jnp.arange(n * n)
@@ -60,7 +61,9 @@ def woods_layout(key: jax.Array, cfg: WorldCfg) -> Obstacles:
     radius = wc.trunk_radius_min_m + u[:, 0] * (wc.trunk_radius_max_m - wc.trunk_radius_min_m)
     centre = _in_cells(u[:, 1:], ij * wc.spacing_m, wc.spacing_m, wc.gap_m, radius[:, None])
     period = jnp.asarray(wc.tile_m, jnp.float32)
-    return Obstacles(centre, jnp.zeros((n * n, 2), jnp.float32), radius, period, boxes=False)
+    half = jnp.zeros((n * n, 2), jnp.float32)
+    corner = jnp.zeros(2, jnp.float32)
+    return Obstacles(centre, half, radius, period, corner, boxes=False, grid_cells=n)
 
 
 def step_reach_m(cfg: WorldCfg) -> float:
@@ -133,6 +136,13 @@ def woods_checks(cfg: WorldCfg) -> list[tuple[bool, str, str]]:
             w.spacing_m - w.gap_m >= 2 * w.trunk_radius_max_m,
             "woods.spacing_m",
             "a cell less the gap must hold the widest trunk",
+        ),
+        (
+            cfg.avoid.lookahead_m + cfg.target.radius_m < 0.5 * (w.spacing_m + w.gap_m),
+            "avoid.lookahead_m",
+            f"plus the target's radius must stay below {0.5 * (w.spacing_m + w.gap_m):.2f} m, "
+            "half of woods.spacing_m + woods.gap_m: the flee rule tests the trunks of the 2 x 2 "
+            "cells nearest the target only (obstacles.cell_block)",
         ),
         (
             w.tile_cells * w.spacing_m >= 2 * reach,

@@ -9,7 +9,9 @@ with that period: every query uses the copy of each obstacle nearest its query p
 
 Everything here is analytic and vectorised over obstacles (and rays): signed distances and
 push-out for collision, entry/exit distances along rays for the range scan, the camera's line
-of sight and the target's free-direction rule.
+of sight and the target's free-direction rule. A layout with one obstacle per cell of a grid
+(``grid_cells`` > 0: the woods) also answers "which obstacles can be near this point" from
+the point's cell, without testing every obstacle (``own_cell``, ``cell_block``).
 """
 
 from __future__ import annotations
@@ -38,8 +40,15 @@ class Obstacles:
     """Radius of a cylinder, (K,); 0 for a box."""
     period_m: jax.Array
     """Side of the tile a periodic layout repeats on, (); 0 for none."""
+    corner_xy_m: jax.Array
+    """Where a gridded layout's cells start (a corner of its tile) in the local frame, (2,);
+    zeros for a layout without a grid. Moves with the centres."""
     boxes: bool = struct.field(pytree_node=False, default=True)
     """Static: the layout may hold boxes. False (the woods) skips the boxes' ray test."""
+    grid_cells: int = struct.field(pytree_node=False, default=0)
+    """Static: n > 0 for a periodic layout with one obstacle per cell of an n x n grid over
+    its tile, obstacle k in cell (k % n, k // n) counted from ``corner_xy_m``, each at least
+    the layout's gap / 2 inside its cell's edges (``layouts.woods_layout``); 0 for none."""
 
     @property
     def is_box(self) -> jax.Array:
@@ -49,7 +58,10 @@ class Obstacles:
     def shifted(self, d_m: jax.Array) -> Obstacles:
         """The same obstacles in a frame moved by ``d_m`` (2,); a periodic layout's centres
         are brought within half a period of the new frame's origin."""
-        return self.replace(centre_xy_m=nearest_image(self.centre_xy_m - d_m, self.period_m))
+        return self.replace(
+            centre_xy_m=nearest_image(self.centre_xy_m - d_m, self.period_m),
+            corner_xy_m=nearest_image(self.corner_xy_m - d_m, self.period_m),
+        )
 
 
 def no_obstacles() -> Obstacles:
@@ -60,6 +72,7 @@ def no_obstacles() -> Obstacles:
         half_m=jnp.zeros((0, 2), jnp.float32),
         radius_m=z,
         period_m=jnp.zeros((), jnp.float32),
+        corner_xy_m=jnp.zeros((2,), jnp.float32),
     )
 
 
@@ -115,6 +128,62 @@ def nearest(obs: Obstacles, xy_m: jax.Array) -> Obstacles:
     return obs.replace(
         centre_xy_m=take(obs.centre_xy_m), half_m=take(obs.half_m), radius_m=take(obs.radius_m)
     )
+
+
+def _take(obs: Obstacles, index: jax.Array) -> Obstacles:
+    """The obstacles at ``index`` (J,), as a layout of J without a grid."""
+    return obs.replace(
+        centre_xy_m=obs.centre_xy_m[index],
+        half_m=obs.half_m[index],
+        radius_m=obs.radius_m[index],
+        grid_cells=0,
+    )
+
+
+def _cell_of(obs: Obstacles, xy_m: jax.Array) -> tuple[jax.Array, jax.Array]:
+    """The grid cell holding ``xy_m`` (2,) as (2,) float indices in [0, n), and the point's
+    place inside that cell, (2,) in [0, 1)."""
+    n = obs.grid_cells
+    u = (xy_m - obs.corner_xy_m) / (obs.period_m / n)
+    cell = jnp.floor(u)
+    return cell - n * jnp.floor(cell / n), u - cell
+
+
+def _flat(obs: Obstacles, cell: jax.Array) -> jax.Array:
+    """Obstacle index of (..., 2) float cell indices in [0, n)."""
+    return (cell[..., 0] + obs.grid_cells * cell[..., 1]).astype(jnp.int32)
+
+
+def own_cell(obs: Obstacles, xy_m: jax.Array) -> Obstacles:
+    """The obstacle of the grid cell holding ``xy_m`` (2,), as a layout of one (K = 1).
+
+    Every other obstacle's surface is at least the layout's gap / 2 from the point (each
+    lies that far inside its own cell), so for a body that reaches less than that within a
+    control step (``layouts.step_reach_m``, a config check) this one is the only obstacle it
+    can touch: what ``nearest`` gives such a body, without testing every obstacle.
+    """
+    cell, _ = _cell_of(obs, xy_m)
+    return _take(obs, _flat(obs, cell)[None])
+
+
+def cell_block(obs: Obstacles, xy_m: jax.Array) -> Obstacles:
+    """The obstacles of the 2 x 2 block of grid cells nearest ``xy_m`` (2,): its own cell and
+    the neighbours on the sides of the cell it is nearer to, as a layout of four (K = 4).
+
+    Every other obstacle's surface is at least (cell side + gap) / 2 from the point: a test
+    that reaches less far than that (the flee rule's lookahead plus the target's radius, a
+    config check in ``layouts.woods_checks``) gives the same answer on these four as on the
+    whole layout. On a grid of one cell per side the block repeats that cell, which is as
+    exact (each query takes an obstacle's nearest copy).
+    """
+    n = obs.grid_cells
+    cell, place = _cell_of(obs, xy_m)
+    step = jnp.where(place >= 0.5, 1.0, -1.0)
+    other = cell + step
+    other = jnp.where(other >= n, 0.0, jnp.where(other < 0.0, n - 1.0, other))
+    xs = jnp.stack([cell[0], other[0], cell[0], other[0]])
+    ys = jnp.stack([cell[1], cell[1], other[1], other[1]])
+    return _take(obs, _flat(obs, jnp.stack([xs, ys], axis=-1)))
 
 
 def push_out(obs: Obstacles, xy_m: jax.Array, radius_m) -> tuple[jax.Array, jax.Array]:

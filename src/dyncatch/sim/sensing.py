@@ -22,6 +22,11 @@ def period_steps(cfg: WorldCfg) -> jax.Array:
     return jnp.maximum(jnp.round(cfg.episode.control_hz / cfg.sensor.rate_hz), 1).astype(jnp.int32)
 
 
+def takes_frame(step: jax.Array, cfg: WorldCfg) -> jax.Array:
+    """() bool: the camera takes a frame at control step ``step`` (delivered later)."""
+    return step % period_steps(cfg) == 0
+
+
 def latency_steps(cfg: WorldCfg) -> jax.Array:
     return jnp.round(cfg.sensor.latency_s * cfg.episode.control_hz).astype(jnp.int32)
 
@@ -74,7 +79,7 @@ def sensor_tick(
     """
     period = period_steps(cfg)
     lag = latency_steps(cfg)
-    capture = step % period == 0
+    capture = takes_frame(step, cfg)
     seen_now = in_view(robot, target.xy_m, cfg)
     if line_of_sight is not None:
         seen_now = seen_now & line_of_sight
