@@ -91,3 +91,16 @@ def test_nested_vmap_over_seeds(monkeypatch):
     np.testing.assert_array_equal(gated[3], ends)
     for a, b in zip(_leaves(gated), _leaves(ungated), strict=True):
         np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-5)
+
+
+@pytest.mark.parametrize("scene", ["open_plane", "woods_plane"])
+def test_a_reset_state_has_the_types_of_a_stepped_one(scene):
+    # A jitted function of states (PPO's iteration) compiles once for both: a weakly typed
+    # leaf in the reset state alone made every training run compile its iteration twice.
+    env = JaxCatchEnv(WorldCfg().for_scene(scene))
+    reset = vec.batch_reset(jax.random.key(0), env, 4)
+    stepped = vec.batch_step(reset, jnp.zeros((4, 3)), env)[0]
+    assert jax.tree.structure(reset) == jax.tree.structure(stepped)
+    flat_reset = jax.tree_util.tree_flatten_with_path(reset)[0]
+    for (path, a), b in zip(flat_reset, jax.tree.leaves(stepped), strict=True):
+        assert jax.typeof(a) == jax.typeof(b), jax.tree_util.keystr(path)

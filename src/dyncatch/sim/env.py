@@ -157,7 +157,9 @@ def reset(key: jax.Array, cfg: WorldCfg) -> EnvState:
     robot = robot.replace(gripper_xyz_m=gripper_world(robot, gripper_in_base(q, cfg.arm, cfg.base)))
     step0 = jnp.zeros((), jnp.int32)
     # The reset frame counts as a tick; start the clock one step early so its age reads 0.
-    sensor = initial_sensor(robot).replace(time_since_seen_s=jnp.full((), -cfg.episode.dt_s))
+    sensor = initial_sensor(robot).replace(
+        time_since_seen_s=jnp.full((), -cfg.episode.dt_s, jnp.float32)
+    )
     sensor = sensor_tick(
         sensor,
         robot,
