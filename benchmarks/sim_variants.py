@@ -70,6 +70,10 @@ def _compiled(env: JaxCatchEnv, num_envs: int, arm_gate: str, reset_gate: str | 
         fn = jax.jit(lambda s, k: jax.lax.scan(body, s, jax.random.split(k, STEPS)))
         state = vec.batch_reset(jax.random.key(0), env, num_envs)
         out = fn(state, jax.random.key(1))  # traced now, with the gates above
+        # Trace again on the stepped state that the timing uses, still with these gates: a
+        # state whose leaves' types differed from the reset's (as a weakly typed one did
+        # before 92d37e4) would otherwise be retraced at timing, with the gates put back.
+        out = fn(out[0], jax.random.key(2))
         jax.block_until_ready(out)
         return fn, out[0]
     finally:
