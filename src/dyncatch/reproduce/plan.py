@@ -209,12 +209,16 @@ def profile_default(plan: Plan) -> Plan:
     return apply_readings(PROFILES[plan.profile], plan.setting)
 
 
-# Measured on the 2-core CI machine (docs/performance.md, docs/results.md); only used to
-# print an estimate before starting.
-EST_SAMPLES_PER_S = 17_000.0
+# Measured on the idle 2-core machine; only used to print an estimate before starting.
+# The full run of 2026-12-02 (docs/results.md): a group of 3 seeds x 4 M steps took
+# 551-582 s with its compilation and periodic evaluations (training is bound by PPO's
+# update, not the simulator); Table I's 6 speeds x 1000 episodes about 20 s per policy;
+# a video 7 s. Its uncontended stages sum to about 132 min; these constants give 138.
+EST_SAMPLES_PER_S = 24_000.0
 EST_COMPILE_S_PER_RUN = 20.0
-EST_EVAL_S_PER_1000_EPISODES = 6.0
+EST_EVAL_S_PER_1000_EPISODES = 3.0
 EST_PREDICTOR_S_PER_M_STEPS = 8.0
+EST_VIDEO_S = 10.0
 
 
 def estimate_s(plan: Plan) -> float:
@@ -235,7 +239,7 @@ def estimate_s(plan: Plan) -> float:
     )
     pred_steps += len(all_kinds()) * len(plan.table_ii_rows) * max(plan.table_ii_budgets)
     predictors = pred_steps / 1e6 * EST_PREDICTOR_S_PER_M_STEPS + 30 * len(plan.behaviors)
-    videos = 30.0 * len(columns) if plan.videos else 0.0
+    videos = EST_VIDEO_S * len(columns) if plan.videos else 0.0
     fig9 = 0.0
     if plan.fig9:
         from dyncatch.reproduce.fig9 import rows_of
@@ -249,7 +253,7 @@ def estimate_s(plan: Plan) -> float:
         episode_s = (plan.fig9_duration_s or 40.0) / 20.0
         per_cell = plan.fig9_episodes / 1000 * EST_EVAL_S_PER_1000_EPISODES * episode_s
         fig9 = cells * per_cell + compiles * EST_COMPILE_S_PER_RUN
-        fig9 += 60.0 * len(plan.fig9_scenes) if plan.videos else 0.0
+        fig9 += EST_VIDEO_S * len(plan.fig9_scenes) if plan.videos else 0.0
     return train + evaluate + predictors + videos + fig9
 
 
