@@ -217,7 +217,7 @@ def profile_default(plan: Plan) -> Plan:
 # A (method, behaviour)'s seeds compile once whether grouped or one by one (a process
 # reuses the compiled iteration: docs/scaling.md).
 EST_SAMPLES_PER_S = 22_000.0
-EST_COMPILE_S_PER_GROUP = 20.0
+EST_COMPILE_S = 20.0  # one compilation: a training group's iteration, a Fig. 9 row's rollout
 EST_EVAL_S_PER_1000_EPISODES = 3.0
 EST_PREDICTOR_S_PER_M_STEPS = 8.0
 EST_VIDEO_S = 10.0
@@ -233,7 +233,7 @@ def estimate_s(plan: Plan) -> float:
     columns = plan.fig6_columns
     groups = plan.training_runs // plan.seeds
     train = plan.training_runs * plan.train_steps / EST_SAMPLES_PER_S
-    train += groups * EST_COMPILE_S_PER_GROUP
+    train += groups * EST_COMPILE_S
     policies = len(plan.method_names) * plan.seeds + len(BASELINES)
     fig6 = len(fig6_evaluated_columns(plan))
     cells = policies * (len(plan.speeds_mps) * len(plan.table_i_rows) + fig6)
@@ -256,7 +256,7 @@ def estimate_s(plan: Plan) -> float:
         # A 40 s episode is 2 of the 20 s ones the evaluation constant was measured on.
         episode_s = (plan.fig9_duration_s or 40.0) / 20.0
         per_cell = plan.fig9_episodes / 1000 * EST_EVAL_S_PER_1000_EPISODES * episode_s
-        fig9 = cells * per_cell + compiles * EST_COMPILE_S_PER_GROUP
+        fig9 = cells * per_cell + compiles * EST_COMPILE_S
         fig9 += EST_VIDEO_S * len(plan.fig9_scenes) if plan.videos else 0.0
     return train + evaluate + predictors + videos + fig9
 
