@@ -140,13 +140,18 @@ def _take(obs: Obstacles, index: jax.Array) -> Obstacles:
     )
 
 
+def _wrap(cell: jax.Array, n: int) -> jax.Array:
+    """Whole-number float cell indices brought into [0, n) (the tile repeats)."""
+    return cell - n * jnp.floor(cell / n)
+
+
 def _cell_of(obs: Obstacles, xy_m: jax.Array) -> tuple[jax.Array, jax.Array]:
     """The grid cell holding ``xy_m`` (2,) as (2,) float indices in [0, n), and the point's
     place inside that cell, (2,) in [0, 1)."""
     n = obs.grid_cells
     u = (xy_m - obs.corner_xy_m) / (obs.period_m / n)
     cell = jnp.floor(u)
-    return cell - n * jnp.floor(cell / n), u - cell
+    return _wrap(cell, n), u - cell
 
 
 def _flat(obs: Obstacles, cell: jax.Array) -> jax.Array:
@@ -179,8 +184,7 @@ def cell_block(obs: Obstacles, xy_m: jax.Array) -> Obstacles:
     n = obs.grid_cells
     cell, place = _cell_of(obs, xy_m)
     step = jnp.where(place >= 0.5, 1.0, -1.0)
-    other = cell + step
-    other = jnp.where(other >= n, 0.0, jnp.where(other < 0.0, n - 1.0, other))
+    other = _wrap(cell + step, n)
     xs = jnp.stack([cell[0], other[0], cell[0], other[0]])
     ys = jnp.stack([cell[1], cell[1], other[1], other[1]])
     return _take(obs, _flat(obs, jnp.stack([xs, ys], axis=-1)))
