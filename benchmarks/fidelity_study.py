@@ -23,8 +23,8 @@ import numpy as np
 
 from dyncatch.cli.main import main, parse
 from dyncatch.reproduce.aggregate import best_rival, gap, time_gap
-from dyncatch.reproduce.plan import estimate_s
 from dyncatch.reproduce.readings import READINGS, setting_name
+from dyncatch.reproduce.stages import estimate_s
 
 BASELINE = ("narrow_speeds",)
 """The study began before the standard setting was chosen, on the first slice's world; so
@@ -153,6 +153,7 @@ def plot_curves(out: Path, settings: list[str], path: Path) -> None:
     against environment steps, each trained method's seed mean with its seed range shaded."""
     from matplotlib.figure import Figure
 
+    from dyncatch.reproduce.presentation import reproduced_methods
     from dyncatch.reproduce.report import color, label, read_curve
     from dyncatch.rl.methods import trained_methods
 
@@ -161,7 +162,7 @@ def plot_curves(out: Path, settings: list[str], path: Path) -> None:
     fig = Figure(figsize=(4.0 * cols, 3.2 * rows), layout="constrained")
     axes = fig.subplots(rows, cols, squeeze=False)
     for ax, name in zip(axes.flat, settings, strict=False):
-        for method in trained_methods():
+        for method in trained_methods(reproduced_methods()):
             runs = sorted((out / name / "runs" / "reactive" / method).glob("seed*"))
             curves = [read_curve(r) for r in runs if (r / "metrics.csv").exists()]
             if not curves:

@@ -26,8 +26,8 @@ import numpy as np
 
 from dyncatch.cli.main import main, parse
 from dyncatch.reproduce.aggregate import gap, t95, time_gap
-from dyncatch.reproduce.plan import estimate_s
 from dyncatch.reproduce.report import checks_markdown
+from dyncatch.reproduce.stages import estimate_s
 
 METHODS = ("rl", "p_rl", "sp_fp", "sp_rl", "gt_rl", "st_fp", "st_rl")
 SPEEDS = ("1.4", "1.6", "1.8")

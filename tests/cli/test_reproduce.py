@@ -11,7 +11,8 @@ import pytest
 
 from dyncatch.cli.main import main, parse
 from dyncatch.policies.registry import BASELINES
-from dyncatch.rl.methods import paper_claims, selected, trained_methods
+from dyncatch.reproduce.presentation import PRESENTATION, paper_claims, reproduced_methods
+from dyncatch.rl.methods import trained_methods
 from dyncatch.sim.behaviors import BEHAVIORS, Behavior, registered_behavior
 
 # A throw-away behaviour: straight lines at the speed cap, sliding along walls. Registering
@@ -63,7 +64,7 @@ def quick(tmp_path_factory):
 
 def test_every_table_and_figure_is_written(quick):
     behaviors = ["straight"]
-    filmed = [name for name, m in selected().items() if m.filmed]
+    filmed = [name for name in reproduced_methods() if PRESENTATION[name].filmed]
     for name in (
         "report.md",
         "results.json",
@@ -81,8 +82,9 @@ def test_every_table_and_figure_is_written(quick):
         assert heading in report, heading
     assert "not the paper's Isaac Gym set-up" in report
     # The methods of a default reproduction, not the opt-in ones (st_rl, st_fp).
-    for m in selected().values():
-        assert f"| {m.label} |" in report, m.label
+    for name in reproduced_methods():
+        label = PRESENTATION[name].label
+        assert f"| {label} |" in report, label
     table_ii = (quick / "table_ii" / "table_ii.md").read_text()
     assert "| straight | vanilla |" in table_ii and "| straight | self_aware |" in table_ii
 
@@ -91,9 +93,9 @@ def test_results_json_agrees_with_an_independent_evaluation(quick, capsys):
     r = json.loads((quick / "results.json").read_text())
     assert (r["scene"], r["setting"]) == (r["plan"]["world"]["scene"]["name"], "default")
     cells = r["table_i"]["cells"]
-    assert {c["method"] for c in cells} == {*selected(), *BASELINES}
+    assert {c["method"] for c in cells} == {*reproduced_methods(), *BASELINES}
     assert {c["behavior"] for c in cells} == {"straight"}
-    assert len(cells) == (len(selected()) + len(BASELINES)) * 2  # two speeds
+    assert len(cells) == (len(reproduced_methods()) + len(BASELINES)) * 2  # two speeds
     # A baseline cell equals `dyncatch eval` run by hand in the plan's world.
     plan_world = ["--world.episode.duration-s", "2.0"]
     argv = ["eval", "pursuit", "--behavior", "straight", "--speeds", "0.8", "1.8"]
@@ -113,7 +115,7 @@ def test_results_json_agrees_with_an_independent_evaluation(quick, capsys):
             assert c["catch_time_s"] == pytest.approx(2.0)
     assert {c["behavior"] for c in r["fig6"]["cells"]} == {"straight"}
     assert [(t["behavior"], t["method"]) for t in r["training"]] == [
-        ("straight", m) for m in trained_methods()
+        ("straight", m) for m in trained_methods(reproduced_methods())
     ]
     assert {c["claim"] for c in r["ordering_checks"]} == {f"{a} > {b}" for a, b in paper_claims()}
     assert {(row["behavior"], row["kind"]) for row in r["table_ii"]} >= {
@@ -237,7 +239,7 @@ def _report_lines(path) -> list[str]:
     return lines
 
 
-def _dies_once(marker: str, progress=None) -> None:
+def _dies_once(marker: str) -> None:
     """A job whose first attempt kills its worker process (as a lost node would)."""
     if not os.path.exists(marker):
         open(marker, "w").close()
@@ -246,7 +248,7 @@ def _dies_once(marker: str, progress=None) -> None:
         f.write("done")
 
 
-def _raises(marker: str, progress=None) -> None:
+def _raises(marker: str) -> None:
     with open(marker, "a") as f:
         f.write("x")
     raise RuntimeError("a bug")
@@ -268,12 +270,12 @@ def local_ray():
 
 
 def test_a_dead_ray_worker_is_retried_and_a_failing_job_keeps_the_others(local_ray, tmp_path):
-    from dyncatch.reproduce.stages import Job
+    from tests.reproduce.test_executors import Call
 
     executor, logs = local_ray
     died, failed = str(tmp_path / "died"), str(tmp_path / "failed")
     with pytest.raises(RuntimeError, match=r"(?s)1 job\(s\) failed.*raises: .*a bug"):
-        executor.run([Job("dies once", _dies_once, (died,)), Job("raises", _raises, (failed,))])
+        executor.run([Call("dies once", _dies_once, (died,)), Call("raises", _raises, (failed,))])
     # The killed attempt was re-run to the end; the raising job ran once, not retried.
     assert open(died).read() == "done"
     assert open(failed).read() == "x"

@@ -24,6 +24,7 @@ from dyncatch.predictor.features import history_from_state
 from dyncatch.predictor.model import Predictor
 from dyncatch.predictor.tracker.config import TrackerCfg
 from dyncatch.predictor.tracker.model import Tracker
+from dyncatch.reproduce.presentation import reproduced_methods
 from dyncatch.rl.methods import METHODS, predictor_kinds, selected, trained_methods
 from dyncatch.rl.policy import load_run
 from dyncatch.rl.runner import TrainRunner
@@ -49,7 +50,7 @@ def runs(tmp_path_factory):
     """
     root = tmp_path_factory.mktemp("export")
     preds = {}
-    for i, kind in enumerate(predictor_kinds()):
+    for i, kind in enumerate(predictor_kinds(reproduced_methods())):
         pred = Predictor.for_world(PredictorCfg(kind=kind, hidden=(8,)), WorldCfg())
         params = pred.init(jax.random.key(i))
         k1, k2 = jax.random.split(jax.random.key(10 + i))
@@ -57,7 +58,7 @@ def runs(tmp_path_factory):
         params["in_std"] = jax.random.uniform(k2, params["in_std"].shape, minval=0.3, maxval=3)
         preds[kind] = root / f"{kind}.safetensors"
         save_predictor(preds[kind], pred, params)
-    for name in trained_methods():
+    for name in trained_methods(reproduced_methods()):
         kind = METHODS[name].predictor_kind
         argv = ["train", "--method", name, "--out", str(root / name), *FAST]
         argv += ["--predictor", str(preds[kind])] if kind else []
@@ -66,7 +67,7 @@ def runs(tmp_path_factory):
         else:
             runner = TrainRunner(parse(argv)[1])
             runner.save(runner.initial_state())
-    for name, m in selected().items():
+    for name, m in selected(reproduced_methods()).items():
         argv = ["export", str(root / m.policy_source), "--out", str(root / f"{name}_onnx")]
         if not m.trained:
             argv += ["--as-method", name, "--predictor", str(preds[m.predictor_kind])]
@@ -121,7 +122,7 @@ def _jax_policy(policy, states, obs):
     return x, command
 
 
-@pytest.mark.parametrize("method", list(selected()))
+@pytest.mark.parametrize("method", list(selected(reproduced_methods())))
 def test_the_graphs_equal_the_jax_policy_and_predictor(runs, recorded, method):
     root, _ = runs
     out, policy = root / f"{method}_onnx", _load(runs, method).policy

@@ -10,7 +10,8 @@ from dyncatch.reproduce.aggregate import (
     ordering_checks,
     summarize_cells,
 )
-from dyncatch.rl.methods import METHODS, paper_claims
+from dyncatch.reproduce.presentation import paper_claims
+from dyncatch.rl.methods import METHODS
 
 
 def _rows(method: str, success: list[float], times: list[float], speed: float = 1.8) -> list:

@@ -3,13 +3,15 @@ started here: tests/cli/test_reproduce.py runs the real local Ray)."""
 
 import os
 import sys
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import jax
 import pytest
 
 from dyncatch.reproduce.executors import SerialExecutor, worker_env
-from dyncatch.reproduce.stages import Job
+from dyncatch.reproduce.jobs import Job
 
 
 def test_a_worker_gets_the_drivers_jax_settings_and_on_a_local_ray_its_path(monkeypatch):
@@ -31,7 +33,19 @@ def test_a_worker_gets_the_drivers_jax_settings_and_on_a_local_ray_its_path(monk
     assert "PYTHONPATH" not in worker_env(local=False)
 
 
-def _append(path, item, progress=None):
+@dataclass(frozen=True)
+class Call(Job):
+    """A job that calls ``fn(*args)``: the executors run any ``Job``."""
+
+    name: str
+    fn: Callable
+    args: tuple = ()
+
+    def run(self, progress=None) -> None:
+        self.fn(*self.args)
+
+
+def _append(path, item):
     with open(path, "a") as f:
         f.write(item)
 
@@ -39,12 +53,12 @@ def _append(path, item, progress=None):
 def test_the_serial_executor_runs_each_job_in_order_and_logs_it(tmp_path):
     logs = []
     out = tmp_path / "order"
-    jobs = [Job(f"job {c}", _append, (out, c)) for c in "abc"]
+    jobs = [Call(f"job {c}", _append, (out, c)) for c in "abc"]
     SerialExecutor(logs.append).run(jobs)
     assert out.read_text() == "abc" and logs == ["job a", "job b", "job c"]
 
 
-def _registered(path, name, progress=None):
+def _registered(path, name):
     from dyncatch.sim.behaviors import BEHAVIORS
 
     Path(path).write_text(" ".join(sorted(BEHAVIORS)) if name in BEHAVIORS else "missing")
@@ -62,7 +76,7 @@ def test_a_worker_runs_a_job_with_the_drivers_behaviours_then_restores_its_own(
     driver_cwd.mkdir()
     before = dict(BEHAVIORS)
     out = tmp_path / "seen"
-    job = Job("sees straight", _registered, (str(out), "straight"))
+    job = Call("sees straight", _registered, (str(out), "straight"))
     _run_on_worker(job, {**BEHAVIORS, "straight": STRAIGHT}, str(driver_cwd))
     assert out.read_text() == " ".join(sorted([*before, "straight"]))
     assert BEHAVIORS == before and os.getcwd() == str(driver_cwd)
@@ -73,16 +87,16 @@ def _doubled(x):
     return 2.0 * x
 
 
-def _job_that_compiles(out: Path, progress=None) -> None:
+def _job_that_compiles(out: Path) -> None:
     out.write_text(str(float(_doubled(jax.numpy.float32(3.0)))))
 
 
 def test_a_job_keeps_its_programs_far_from_the_mappings_limit(tmp_path, monkeypatch):
-    import dyncatch.reproduce.stages as stages
+    import dyncatch.reproduce.jobs as jobs
 
     _doubled(jax.numpy.float32(0.0))
-    monkeypatch.setattr(stages, "_mappings", lambda: (100, 65530))
-    Job("compile", _job_that_compiles, (tmp_path / "x",))()
+    monkeypatch.setattr(jobs, "_mappings", lambda: (100, 65530))
+    Call("compile", _job_that_compiles, (tmp_path / "x",))()
     assert _doubled._cache_size() == 1
     jax.clear_caches()
 
@@ -92,17 +106,17 @@ def test_a_job_releases_the_programs_it_compiled_near_the_limit_even_when_it_fai
 ):
     # A long reproduction compiles hundreds of programs; kept, their memory mappings reach
     # the kernel's limit (vm.max_map_count) and the process dies.
-    import dyncatch.reproduce.stages as stages
+    import dyncatch.reproduce.jobs as jobs
 
-    monkeypatch.setattr(stages, "_mappings", lambda: (40_000, 65530))
-    Job("compile", _job_that_compiles, (tmp_path / "x",))()
+    monkeypatch.setattr(jobs, "_mappings", lambda: (40_000, 65530))
+    Call("compile", _job_that_compiles, (tmp_path / "x",))()
     assert (tmp_path / "x").read_text() == "6.0"
     assert _doubled._cache_size() == 0
 
-    def fails(progress=None):
+    def fails():
         _doubled(jax.numpy.float32(1.0))
         raise RuntimeError("boom")
 
     with pytest.raises(RuntimeError, match="boom"):
-        Job("fails", fails, ())()
+        Call("fails", fails)()
     assert _doubled._cache_size() == 0

@@ -11,7 +11,10 @@ from dyncatch.policies.blend import blended
 from dyncatch.policies.registry import BASELINES
 from dyncatch.reproduce import fig9, fig9_report
 from dyncatch.reproduce.executors import SerialExecutor
-from dyncatch.reproduce.plan import Plan, validate_plan
+from dyncatch.reproduce.paper import PAPER_FIG9_SCENES, PAPER_FIG9_SUCCESS
+from dyncatch.reproduce.plan import Plan
+from dyncatch.reproduce.stages import estimate_s
+from dyncatch.reproduce.validate import validate_plan
 
 PLAN = Plan(
     quick=True,
@@ -30,7 +33,9 @@ EXECUTOR = SerialExecutor(log=lambda msg: None)
 def stage(tmp_path_factory):
     out = tmp_path_factory.mktemp("fig9")
     validate_plan(PLAN)
-    return out, fig9.evaluate(PLAN, out, EXECUTOR, rows=ROWS)
+    EXECUTOR.run(fig9.cell_jobs(PLAN, out, ROWS))
+    assert fig9.cell_jobs(PLAN, out, ROWS) == []  # finished: read back
+    return out, fig9.cell_rows(PLAN, out, ROWS)
 
 
 def test_cells_agree_with_a_direct_evaluation(stage):
@@ -38,7 +43,7 @@ def test_cells_agree_with_a_direct_evaluation(stage):
     assert [(r["scene"], r["behavior"], r["method"]) for r in rows] == [
         ("room_4", "reactive", "pursuit+blend"),
     ]
-    world = fig9.scene_world(PLAN.world, "room_4", "reactive", PLAN)
+    world = fig9.scene_world(PLAN.world, "room_4", "reactive", PLAN.fig9_duration_s)
     assert world.episode.duration_s == 1.0 and world.scene.name == "room_4"
     policy = blended(BASELINES["pursuit"](world), world)
     key = fig9.cell_key("room_4", "reactive")
@@ -60,18 +65,15 @@ def test_table_and_figure_are_written(stage):
     text = "\n".join(fig9_report.markdown({"cells": cells, "videos": []}, PLAN))
     assert "| pursuit (scripted) + blend |" in text and "### reactive" in text
     paper = fig9_report.paper_json()
-    assert {(p["scene"], p["behavior"]) for p in paper["success"]} == {
-        ("room_0", "circle"),
-        ("room_0", "bounce"),
-        ("room_0", "reactive"),
-    }
+    assert {(p["scene"], p["behavior"]) for p in paper["success"]} == set(PAPER_FIG9_SUCCESS)
     json.dumps(paper)
 
 
 @pytest.mark.extended  # a second compiled rollout and a GIF: about 15 s more on 2 cores
 def test_a_gif_per_scene(stage):
     out, _ = stage
-    clips = fig9.record_videos(PLAN, out, EXECUTOR, row="pursuit+blend")
+    EXECUTOR.run(fig9.video_jobs(PLAN, out, row="pursuit+blend"))
+    clips = fig9.videos(PLAN, out)
     assert (out / "videos" / "fig9_room_4.gif").stat().st_size > 0
     assert [c["scene"] for c in clips] == ["room_4"]
     text = "\n".join(fig9_report.markdown({"cells": [], "videos": clips}, PLAN))
@@ -81,9 +83,8 @@ def test_a_gif_per_scene(stage):
 def test_rows_follow_the_plan_and_names_round_trip():
     """A method beyond the paper that PPO trains (st_rl) gains a blended row when the plan
     selects it; st_fp (gt_rl's policy) and the default plan's methods add none."""
-    from dyncatch.reproduce.plan import estimate_s
-
     assert fig9.rows_of(Plan()) == fig9.FIG9_ROWS
+    assert Plan().fig9_scenes == PAPER_FIG9_SCENES  # the paper's six, in one place
     tracked = Plan(methods=("rl", "p_rl", "sp_fp", "sp_rl", "gt_rl", "st_fp", "st_rl"))
     assert fig9.rows_of(tracked) == (*fig9.FIG9_ROWS, fig9.Fig9Row("st_rl", True))
     assert estimate_s(tracked) > estimate_s(Plan())

@@ -1,24 +1,27 @@
 """The jobs a stage hands its executor: only what is unfinished, seeds grouped for one
-vmap-ped run unless ``--no-vmap-seeds``, and nothing at all when everything is done."""
+vmap-ped run unless ``--no-vmap-seeds``, and nothing at all when everything is done. Each
+job is a small typed spec: it pickles without the plan."""
 
 import json
+import pickle
 
 import pytest
 
-from dyncatch.reproduce.layout import cell_path, run_dir
+from dyncatch.reproduce.jobs import EvalJob, TrainJob
+from dyncatch.reproduce.layout import cell_path, fig6_evaluated_columns, run_dir
 from dyncatch.reproduce.plan import Plan
-from dyncatch.reproduce.stages import _train_job, evaluate_grid, policies, train_policies
+from dyncatch.reproduce.presentation import reproduced_methods
+from dyncatch.reproduce.stages import (
+    fig6_jobs,
+    fig6_rows,
+    grid_jobs,
+    grid_rows,
+    policies,
+    train_jobs,
+)
 from dyncatch.rl.methods import trained_methods
 
-
-class Recorder:
-    """An executor that only records the jobs it is given."""
-
-    def __init__(self):
-        self.jobs = []
-
-    def run(self, jobs):
-        self.jobs += list(jobs)
+TRAINED = trained_methods(reproduced_methods())
 
 
 def _finish(out, behavior, method, seed):
@@ -27,34 +30,57 @@ def _finish(out, behavior, method, seed):
     (d / "done.json").write_text("{}")
 
 
+def _seeds(job: TrainJob) -> tuple:
+    first = job.runs[0]
+    return first.behavior, first.method, tuple(c.seed for c in job.runs)
+
+
 def test_unfinished_seeds_of_a_method_are_one_group(tmp_path):
     plan = Plan(seeds=3, behaviors=("reactive",))
-    first, *others = trained_methods()
+    first, *others = TRAINED
     _finish(tmp_path, "reactive", first, 1)
-    ex = Recorder()
-    train_policies(plan, tmp_path, ex)
-    assert [j.args[2:] for j in ex.jobs] == [
+    jobs = train_jobs(plan, tmp_path)
+    assert [_seeds(j) for j in jobs] == [
         ("reactive", first, (0, 2)),
         *(("reactive", m, (0, 1, 2)) for m in others),
     ]
-    assert all(j.fn is _train_job for j in ex.jobs)
-    assert ex.jobs[0].name == f"train {first} on reactive, seeds 0, 2"
+    assert all(isinstance(j, TrainJob) for j in jobs)
+    assert jobs[0].name == f"train {first} on reactive, seeds 0, 2"
+    # Each run is the config `dyncatch train` would get; resume is read when the job starts.
+    run = jobs[0].runs[1]
+    assert (run.seed, run.out, run.total_steps, run.resume) == (
+        2,
+        run_dir(tmp_path, "reactive", first, 2),
+        plan.train_steps,
+        False,
+    )
+    assert run.world == plan.world and run.ppo == plan.ppo
 
 
 def test_without_vmap_seeds_each_seed_is_its_own_job(tmp_path):
     plan = Plan(seeds=2, behaviors=("reactive",), vmap_seeds=False)
-    ex = Recorder()
-    train_policies(plan, tmp_path, ex)
-    assert [j.args[4] for j in ex.jobs] == [(0,), (1,)] * len(trained_methods())
+    jobs = train_jobs(plan, tmp_path)
+    assert [_seeds(j)[2] for j in jobs] == [(0,), (1,)] * len(TRAINED)
+
+
+def test_a_job_pickles_small_and_without_the_plan(tmp_path):
+    plan = Plan(seeds=3)
+    evaluations = grid_jobs(plan, tmp_path, "t", ("reactive",), (1.8,))
+    for job in [*train_jobs(plan, tmp_path), *evaluations]:
+        blob = pickle.dumps(job)
+        assert pickle.loads(blob).name == job.name
+        assert b"dyncatch.reproduce.plan" not in blob, job.name
+    eval_job = grid_jobs(plan, tmp_path, "t", ("reactive",), (1.8,))[0]
+    assert isinstance(eval_job, EvalJob)
+    # An evaluation cell of a learned policy carries names, paths and numbers only.
+    assert len(pickle.dumps(eval_job)) < 1000
 
 
 def test_finished_work_makes_no_job_and_is_read_back(tmp_path):
     plan = Plan(seeds=1, behaviors=("reactive",))
-    for m in trained_methods():
+    for m in TRAINED:
         _finish(tmp_path, "reactive", m, 0)
-    ex = Recorder()
-    train_policies(plan, tmp_path, ex)
-    assert ex.jobs == []
+    assert train_jobs(plan, tmp_path) == []
     # Evaluation: one cell list missing -> one job; the rest is read from the files.
     rows = {}
     for method, seed in policies(plan):
@@ -65,13 +91,13 @@ def test_finished_work_makes_no_job_and_is_read_back(tmp_path):
         path.write_text(json.dumps([row]))
     missing = cell_path(tmp_path, "fig6", "reactive", "pursuit", None)
     missing.unlink()
-    with pytest.raises(FileNotFoundError):  # the recorder ran nothing: still missing
-        evaluate_grid(plan, tmp_path, "fig6", ("reactive",), (1.0,), ex)
-    assert [j.name for j in ex.jobs] == ["fig6: pursuit on reactive"]
+    jobs = grid_jobs(plan, tmp_path, "fig6", ("reactive",), (1.0,))
+    assert [j.name for j in jobs] == ["fig6: pursuit on reactive"]
+    with pytest.raises(FileNotFoundError):  # nothing ran: still missing
+        grid_rows(plan, tmp_path, "fig6", ("reactive",))
     missing.write_text(json.dumps([rows["pursuit"]]))
-    ex.jobs.clear()
-    got = evaluate_grid(plan, tmp_path, "fig6", ("reactive",), (1.0,), ex)
-    assert ex.jobs == []
+    assert grid_jobs(plan, tmp_path, "fig6", ("reactive",), (1.0,)) == []
+    got = grid_rows(plan, tmp_path, "fig6", ("reactive",))
     assert [r["method"] for r in got] == [m for m, _ in policies(plan)]
     assert {r["trained_on"] for r in got} == {"reactive"}
 
@@ -83,9 +109,8 @@ def test_a_column_not_trained_on_plays_the_first_behaviours_policy_in_its_own_wo
     come from the first trained behaviour's run, and the episodes are the column's."""
     import types
 
-    import dyncatch.rl.policy as rl_policy
+    import dyncatch.reproduce.jobs as jobs_module
     from dyncatch.policies.registry import BASELINES
-    from dyncatch.reproduce.stages import _eval_job
     from dyncatch.sim.config import WorldCfg
 
     world = WorldCfg()
@@ -97,8 +122,10 @@ def test_a_column_not_trained_on_plays_the_first_behaviours_policy_in_its_own_wo
         loaded.append((run, as_method, predictor))
         return types.SimpleNamespace(policy=BASELINES["pursuit"](world), world=world)
 
-    monkeypatch.setattr(rl_policy, "load_run", fake_load_run)
-    _eval_job(plan, tmp_path, "fig6", "circle", "sp_rl", 0, (1.2,))
+    monkeypatch.setattr(jobs_module, "load_run", fake_load_run)
+    jobs = grid_jobs(plan, tmp_path, "fig6", ("circle",), (1.2,))
+    (job,) = [j for j in jobs if (j.policy.name, j.policy.seed) == ("sp_rl", 0)]
+    job()
     run, as_method, predictor = loaded[0]
     assert run == run_dir(tmp_path, "reactive", "sp_rl", 0)
     assert as_method == "sp_rl" and "reactive" in str(predictor)
@@ -108,32 +135,35 @@ def test_a_column_not_trained_on_plays_the_first_behaviours_policy_in_its_own_wo
         path = cell_path(tmp_path, "fig6", "circle", method, seed)
         if not path.exists():
             path.write_text(json.dumps([{"method": method}]))
-    got = evaluate_grid(plan, tmp_path, "fig6", ("circle",), (1.2,), Recorder())
+    got = grid_rows(plan, tmp_path, "fig6", ("circle",))
     assert {r["trained_on"] for r in got} == {"reactive"}
 
 
-def test_fig6_takes_table_i_cells_where_it_has_them_and_evaluates_the_rest(tmp_path):
-    from dyncatch.reproduce.stages import fig6_evaluated_columns, fig6_grid
+def _write_cells(out, table, behavior, plan, rows_of):
+    for method, seed in policies(plan):
+        path = cell_path(out, table, behavior, method, seed)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(rows_of(method)))
 
+
+def test_fig6_takes_table_i_cells_where_it_has_them_and_evaluates_the_rest(tmp_path):
     plan = Plan(seeds=1, behaviors=("reactive",), speeds_mps=(1.4, 1.8),
                 fig6_behaviors=("reactive", "circle"))  # fmt: skip
     assert fig6_evaluated_columns(plan) == ("circle",)
-    table_i = [
+    _write_cells(tmp_path, "table_i", "reactive", plan, lambda m: [
         {"behavior": "reactive", "method": m, "speed_mps": v, "success_rate": v / 2}
-        for m, _ in policies(plan)
         for v in (1.4, 1.8)
-    ]
-    for method, seed in policies(plan):
-        path = cell_path(tmp_path, "fig6", "circle", method, seed)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps([{"behavior": "circle", "method": method, "speed_mps": 1.8}]))
-    ex = Recorder()
-    rows = fig6_grid(plan, tmp_path, table_i, ex)
-    assert ex.jobs == []  # reactive is Table I's; circle's cells exist
-    assert [(r["behavior"], r["speed_mps"]) for r in rows] == [("reactive", 1.8)] * len(
-        policies(plan)
-    ) + [("circle", 1.8)] * len(policies(plan))
-    assert [r["success_rate"] for r in rows[: len(policies(plan))]] == [0.9] * len(policies(plan))
+    ])  # fmt: skip
+    _write_cells(tmp_path, "fig6", "circle", plan, lambda m: [
+        {"behavior": "circle", "method": m, "speed_mps": 1.8}
+    ])  # fmt: skip
+    assert fig6_jobs(plan, tmp_path) == []  # reactive is Table I's; circle's cells exist
+    rows = fig6_rows(plan, tmp_path)
+    n = len(policies(plan))
+    assert [(r["behavior"], r["speed_mps"]) for r in rows] == [("reactive", 1.8)] * n + [
+        ("circle", 1.8)
+    ] * n
+    assert [r["success_rate"] for r in rows[:n]] == [0.9] * n
     # At a speed Table I does not have, every column is evaluated.
     assert fig6_evaluated_columns(Plan(fig6_speed_mps=1.7, fig6_behaviors=("reactive",))) == (
         "reactive",

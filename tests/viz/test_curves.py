@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from dyncatch.cli.main import main
+from dyncatch.reproduce.presentation import method_labels
 from dyncatch.viz.curves import plot_runs
 from tests.cli.test_train_cli import TINY
 
@@ -71,7 +72,7 @@ def test_plot_two_trained_runs(tmp_path):
     png = tmp_path / "plots" / "curves.png"
     assert main(["plot", *map(str, runs), "--out", str(png)]) == 0
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    fig = plot_runs(runs, ["reward_per_step", "eval/success_rate"])
+    fig = plot_runs(runs, ["reward_per_step", "eval/success_rate"], method_labels())
     lines = _lines(fig.axes[0])
     assert list(lines) == ["seed0 (RL)", "seed1 (RL)"]
     np.testing.assert_array_equal(lines["seed0 (RL)"][0], [64, 128])

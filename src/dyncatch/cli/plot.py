@@ -7,6 +7,7 @@ from pathlib import Path
 
 import tyro
 
+from dyncatch.reproduce.presentation import method_labels
 from dyncatch.viz.curves import DEFAULT_METRICS
 
 
@@ -25,6 +26,6 @@ class PlotCmd:
 def run_plot(cmd: PlotCmd) -> Path:
     from dyncatch.viz.curves import save_curves
 
-    out = save_curves(cmd.runs, cmd.out, cmd.metrics)
+    out = save_curves(cmd.runs, cmd.out, cmd.metrics, method_labels())
     print(f"{out}: {', '.join(cmd.metrics)} of {len(cmd.runs)} run(s)")
     return out

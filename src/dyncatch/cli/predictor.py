@@ -13,8 +13,9 @@ from pathlib import Path
 
 from dyncatch.predictor.config import TRACKER, CollectCfg, Frame, Kind, PredictorCfg, TrainCfg
 from dyncatch.predictor.pipeline import PredictorTrainCfg
-from dyncatch.predictor.table import PAPER_BUDGETS, all_behaviors, all_kinds
+from dyncatch.predictor.table import all_behaviors, all_kinds
 from dyncatch.predictor.tracker.config import TrackerCfg, TrackerDataCfg, TrackerTrainCfg
+from dyncatch.reproduce.paper import PAPER_BUDGETS, PAPER_TABLE_II_ERRORS
 from dyncatch.sim.config import WorldCfg
 from dyncatch.utils.cli_types import BehaviorName
 
@@ -96,7 +97,9 @@ def run_predictor_table(cmd: PredictorTableCmd) -> list[dict]:
             )
 
         setup = (cmd.tracker, cmd.tracker_train, cmd.tracker_data)
-        rows = run_table(table, cfg, cmd.train, cmd.collect, cmd.world, on_cell, setup)
+        rows = run_table(
+            table, cfg, cmd.train, cmd.collect, cmd.world, on_cell, setup, PAPER_TABLE_II_ERRORS
+        )
     wall_s = time.perf_counter() - t0
     header = f"Table II, regenerated in {wall_s:.0f} s (seed {cmd.seed})."
     paths = write(rows, cmd.out, header)

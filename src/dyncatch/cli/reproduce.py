@@ -10,7 +10,7 @@ from dyncatch.reproduce.plan import Plan
 def run_reproduce(plan: Plan) -> dict:
     from dyncatch.cli.progress import rich_progress
     from dyncatch.reproduce.pipeline import run
-    from dyncatch.reproduce.plan import validate_plan
+    from dyncatch.reproduce.validate import validate_plan
 
     plan = validate_plan(plan)
     command = "dyncatch " + " ".join(sys.argv[1:]) if sys.argv[1:] else "dyncatch reproduce"

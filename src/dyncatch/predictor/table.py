@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import csv
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -25,17 +25,6 @@ from dyncatch.predictor.model import Predictor
 from dyncatch.predictor.tracker.config import TrackerCfg, TrackerDataCfg, TrackerTrainCfg
 from dyncatch.predictor.train import encode_samples, evaluate, fit
 from dyncatch.sim.config import WorldCfg
-
-PAPER_TABLE_II: dict[tuple[str, str], tuple[float, ...]] = {
-    ("circle", "vanilla"): (0.001, 0.0, 0.0, 0.0),
-    ("circle", "self_aware"): (0.002, 0.001, 0.001, 0.0),
-    ("bounce", "vanilla"): (0.048, 0.022, 0.024, 0.022),
-    ("bounce", "self_aware"): (0.027, 0.039, 0.026, 0.022),
-    ("reactive", "vanilla"): (1.251, 1.201, 1.261, 1.197),
-    ("reactive", "self_aware"): (0.398, 0.211, 0.205, 0.128),
-}
-"""The paper's errors (m/s) at its budgets; it reports no random_reactive row."""
-PAPER_BUDGETS = (200_000, 500_000, 1_000_000, 2_000_000)
 
 
 def all_behaviors() -> tuple[str, ...]:
@@ -57,24 +46,18 @@ def all_kinds() -> tuple[str, ...]:
 class TableCfg:
     """The grid of Table II."""
 
+    budgets: tuple[int, ...]
+    """Columns: interaction budgets in simulator steps (the paper's:
+    ``dyncatch.reproduce.paper.PAPER_BUDGETS``)."""
     behaviors: tuple[str, ...] = field(default_factory=all_behaviors)
     """Rows: target behaviours (default every registered one)."""
     kinds: tuple[str, ...] = field(default_factory=all_kinds)
     """Predictor kinds per behaviour (default every frame predictor's; ``tracker`` too if
     named)."""
-    budgets: tuple[int, ...] = PAPER_BUDGETS
-    """Columns: interaction budgets in simulator steps."""
     eval_steps: int = 500_000
     """Interaction steps of held-out episodes per behaviour."""
     seed: int = 0
     """Seed of collection, held-out episodes (another stream) and initialisation."""
-
-
-def paper_error(behavior: str, kind: str, budget: int) -> float | None:
-    values = PAPER_TABLE_II.get((behavior, kind))
-    if values is None or budget not in PAPER_BUDGETS:
-        return None
-    return values[PAPER_BUDGETS.index(budget)]
 
 
 def run_table(
@@ -85,10 +68,14 @@ def run_table(
     world: WorldCfg,
     on_cell: Callable[[dict], None] | None = None,
     tracker: tuple[TrackerCfg, TrackerTrainCfg, TrackerDataCfg] | None = None,
+    paper_errors: Mapping[tuple[str, str, int], float] | None = None,
 ) -> list[dict]:
     """Rows ``{"behavior", "kind", "budget_steps", "error_mps", "paper_error_mps",
     "train_samples", "eval_samples", "seconds"}``, one per cell (tracker rows: see
-    ``predictor.tracker.table``; ``tracker`` is its configs, default the library's)."""
+    ``predictor.tracker.table``; ``tracker`` is its configs, default the library's).
+    ``paper_errors`` are the published errors by (behaviour, kind, budget), shown beside
+    ours (``dyncatch.reproduce.paper.PAPER_TABLE_II_ERRORS``); a cell without one has None."""
+    paper_errors = paper_errors or {}
     from dyncatch.predictor.tracker.table import tracker_rows
 
     rows = []
@@ -124,7 +111,7 @@ def run_table(
                     "kind": kind,
                     "budget_steps": budget,
                     "error_mps": error,
-                    "paper_error_mps": paper_error(behavior, kind, budget),
+                    "paper_error_mps": paper_errors.get((behavior, kind, budget)),
                     "train_samples": n,
                     "eval_samples": len(held_out.label_mps),
                     "seconds": time.perf_counter() - t0,

@@ -1,4 +1,4 @@
-"""Who runs a stage's independent jobs (``dyncatch.reproduce.stages.Job``): this process,
+"""Who runs a stage's independent jobs (``dyncatch.reproduce.jobs.Job``): this process,
 one after another, or Ray tasks on a local Ray or a cluster.
 
 Every job writes its outputs under the results folder and skips what exists, and a stage
@@ -17,8 +17,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from dyncatch.reproduce.jobs import Job
 from dyncatch.reproduce.plan import Plan
-from dyncatch.reproduce.stages import Job
 
 RAY_INSTALL = "pip install 'dyncatch[ray]' (or pip install 'ray[default]')"
 
@@ -121,7 +121,7 @@ class RayExecutor:
             address=self.address,
             num_cpus=self.workers if local else None,
             runtime_env={"env_vars": worker_env(local)},
-            # Jobs pass plans and paths, never arrays: a small local object store.
+            # Jobs pass configs and paths, never arrays: a small local object store.
             object_store_memory=_LOCAL_OBJECT_STORE_BYTES if local else None,
             include_dashboard=False,
             log_to_driver=False,

@@ -22,9 +22,24 @@ import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
+import jax
+import numpy as np
+
+from dyncatch.evaluation.episodes import run_episodes
+from dyncatch.evaluation.grid import EVAL_STREAM
+from dyncatch.evaluation.stats import summarize as summarize_outcome
+from dyncatch.policies.blend import deploy
+from dyncatch.policies.registry import BASELINES
+from dyncatch.reproduce.aggregate import mean_ci, summarize_cells
+from dyncatch.reproduce.jobs import Job, PolicySpec, policy_spec
 from dyncatch.reproduce.layout import cached, cell_name, source_behavior
 from dyncatch.reproduce.plan import Plan
-from dyncatch.reproduce.stages import Job, load_policy
+from dyncatch.reproduce.presentation import PRESENTATION
+from dyncatch.rl.methods import METHODS, trained_methods
+from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.scenes import get_scene
+from dyncatch.viz.render import render_frames, write_video
+from dyncatch.viz.trajectory import catch_time_s, record_episode, scene_extras
 
 CONTACT_TOL_M = 1e-3
 """A contact: the footprint within 1 mm of a wall or obstacle (a push-out leaves it at 0;
@@ -43,15 +58,7 @@ class Fig9Row:
         return self.policy + ("+blend" if self.blend else "")
 
     @property
-    def label(self) -> str:
-        from dyncatch.reproduce.report import label
-
-        return label(self.policy) + (" + blend" if self.blend else "")
-
-    @property
     def learned(self) -> bool:
-        from dyncatch.rl.methods import METHODS
-
         return self.policy in METHODS
 
 
@@ -68,9 +75,7 @@ the baselines with it."""
 def rows_of(plan: Plan) -> tuple[Fig9Row, ...]:
     """The rows a plan evaluates: ``FIG9_ROWS``, then each selected method beyond the
     paper that PPO trains (``st_rl``), with the blend, as the paper's method is shown."""
-    from dyncatch.rl.methods import METHODS, trained_methods
-
-    extra = [m for m in trained_methods(plan.method_names) if not METHODS[m].reproduced]
+    extra = [m for m in trained_methods(plan.method_names) if not PRESENTATION[m].reproduced]
     return FIG9_ROWS + tuple(Fig9Row(m, True) for m in extra)
 
 
@@ -82,12 +87,11 @@ def row_named(name: str) -> Fig9Row:
     return Fig9Row(policy, bool(plus))
 
 
-def scene_world(world, scene: str, behavior: str, plan: Plan):
+def scene_world(world: WorldCfg, scene: str, behavior: str, duration_s: float | None) -> WorldCfg:
     """``world`` in ``scene`` with ``behavior`` and the scene's episode length (or
-    ``plan.fig9_duration_s``); the scan keeps its rays (a trained policy's input size)."""
-    from dyncatch.sim.scenes import get_scene
-
-    duration = plan.fig9_duration_s or get_scene(scene).duration_s
+    ``duration_s``, the plan's ``fig9_duration_s``); the scan keeps its rays (a trained
+    policy's input size)."""
+    duration = duration_s or get_scene(scene).duration_s
     w = world.with_scene(scene).with_behavior(behavior)
     return w.replace(episode=w.episode.replace(duration_s=duration))
 
@@ -95,61 +99,85 @@ def scene_world(world, scene: str, behavior: str, plan: Plan):
 def cell_key(scene: str, behavior: str):
     """The evaluation key of a (scene, behaviour) cell: every row and seed plays the same
     episodes, and no key depends on which other scenes the plan holds."""
-    import jax
-
-    from dyncatch.evaluation.grid import EVAL_STREAM
-
     key = jax.random.fold_in(jax.random.key(0), EVAL_STREAM)
     return jax.random.fold_in(key, zlib.crc32(f"fig9/{scene}/{behavior}".encode()) & 0x7FFFFFFF)
 
 
-def deployed(plan: Plan, out: Path, scene: str, behavior: str, row: Fig9Row, seed):
-    """(policy, world) of a row in a scene: the plane-trained policy (or the baseline),
-    blended if the row says so. A policy trained where the scan reads nothing (no walls,
-    no obstacles) is shown that scan (``policies.blend.plane_scan``)."""
-    from dyncatch.policies.blend import deploy
+@dataclass(frozen=True)
+class Deployment:
+    """A row's policy in a scene: the plane-trained policy (or the baseline), blended if
+    the row says so."""
 
-    policy, trained_world = load_policy(plan, out, behavior, row.policy, seed)
-    world = scene_world(trained_world, scene, behavior, plan)
-    if not row.learned:  # a baseline is built for the world it plays in
-        from dyncatch.policies.registry import BASELINES
+    scene: str
+    behavior: str
+    blend: bool
+    policy: PolicySpec
+    duration_s: float | None = None
 
-        return deploy(BASELINES[row.policy](world), None, world, row.blend), world
-    return deploy(policy, trained_world, world, row.blend), world
+    def load(self):
+        """(policy, world). A policy trained where the scan reads nothing (no walls, no
+        obstacles) is shown that scan (``policies.blend.plane_scan``)."""
+        policy, trained_world = self.policy.load()
+        world = scene_world(trained_world, self.scene, self.behavior, self.duration_s)
+        if not self.policy.learned:  # a baseline is built for the world it plays in
+            return deploy(BASELINES[self.policy.name](world), None, world, self.blend), world
+        return deploy(policy, trained_world, world, self.blend), world
+
+
+def deployment(plan: Plan, out: Path, scene: str, behavior: str, row: Fig9Row, seed):
+    return Deployment(
+        scene,
+        behavior,
+        row.blend,
+        policy_spec(plan, out, behavior, row.policy, seed if row.learned else None),
+        plan.fig9_duration_s,
+    )
 
 
 def cell_path(out: Path, scene: str, behavior: str, row: str, seed) -> Path:
     return out / "eval" / "fig9" / scene / behavior / f"{cell_name(row, seed)}.json"
 
 
-def _cell_job(plan: Plan, out: Path, scene, behavior, row: str, seed, progress=None) -> None:
-    def compute():
-        import jax
-        import numpy as np
+@dataclass(frozen=True)
+class Fig9CellJob(Job):
+    """One (scene, behaviour, row, seed) cell into ``path``."""
 
-        from dyncatch.evaluation.episodes import run_episodes
-        from dyncatch.evaluation.stats import summarize
+    path: Path
+    deployed: Deployment
+    row: str
+    episodes: int
+    trained_on: str | None
 
-        policy, world = deployed(plan, out, scene, behavior, row_named(row), seed)
-        key = cell_key(scene, behavior)
-        outcome = jax.device_get(
-            run_episodes(policy, key, world, plan.fig9_episodes, contact_tol_m=CONTACT_TOL_M)
-        )
-        s = summarize(outcome)
-        return {
-            "scene": scene,
-            "behavior": behavior,
-            "method": row,
-            "seed": seed,
-            "episodes": s["episodes"],
-            "success_rate": s["success_rate"],
-            "success_ci95": s["success_ci95"],
-            "catch_time_s": s["catch_time_s"],
-            "contacts_per_episode": float(np.mean(outcome["contacts"])),
-            "trained_on": source_behavior(plan, behavior) if row_named(row).learned else None,
-        }
+    @property
+    def name(self) -> str:
+        d = self.deployed
+        seed = "" if d.policy.seed is None else f" seed {d.policy.seed}"
+        return f"fig9: {self.row}{seed} in {d.scene} on {d.behavior}"
 
-    cached(cell_path(out, scene, behavior, row, seed), compute)
+    def run(self, progress=None) -> None:
+        d = self.deployed
+
+        def compute():
+            policy, world = d.load()
+            key = cell_key(d.scene, d.behavior)
+            outcome = jax.device_get(
+                run_episodes(policy, key, world, self.episodes, contact_tol_m=CONTACT_TOL_M)
+            )
+            s = summarize_outcome(outcome)
+            return {
+                "scene": d.scene,
+                "behavior": d.behavior,
+                "method": self.row,
+                "seed": d.policy.seed,
+                "episodes": s["episodes"],
+                "success_rate": s["success_rate"],
+                "success_ci95": s["success_ci95"],
+                "catch_time_s": s["catch_time_s"],
+                "contacts_per_episode": float(np.mean(outcome["contacts"])),
+                "trained_on": self.trained_on,
+            }
+
+        cached(self.path, compute)
 
 
 def _cells(plan: Plan, rows) -> list[tuple]:
@@ -162,71 +190,87 @@ def _cells(plan: Plan, rows) -> list[tuple]:
     ]
 
 
-def evaluate(plan: Plan, out: Path, executor, rows=None) -> list[dict]:
-    """Every cell of Fig. 9 (cached one file each; default rows: ``rows_of(plan)``); the
-    rows of all of them."""
+def cell_jobs(plan: Plan, out: Path, rows=None) -> list[Job]:
+    """The unfinished cells of Fig. 9 (default rows: ``rows_of(plan)``)."""
+    jobs = []
+    for sc, b, r, s in _cells(plan, rows_of(plan) if rows is None else rows):
+        path = cell_path(out, sc, b, r, s)
+        if not path.exists():
+            row = row_named(r)
+            trained_on = source_behavior(plan, b) if row.learned else None
+            d = deployment(plan, out, sc, b, row, s)
+            jobs.append(Fig9CellJob(path, d, r, plan.fig9_episodes, trained_on))
+    return jobs
+
+
+def cell_rows(plan: Plan, out: Path, rows=None) -> list[dict]:
+    """Every cell of Fig. 9, read back (one file each)."""
     cells = _cells(plan, rows_of(plan) if rows is None else rows)
-    executor.run(
-        [
-            Job(
-                f"fig9: {r}{'' if s is None else f' seed {s}'} in {sc} on {b}",
-                _cell_job,
-                (plan, out, sc, b, r, s),
-            )
-            for sc, b, r, s in cells
-            if not cell_path(out, sc, b, r, s).exists()
-        ]
-    )
     return [json.loads(cell_path(out, *c).read_text()) for c in cells]
 
 
-def _video_job(plan: Plan, out: Path, scene: str, row: str, progress=None) -> None:
-    import jax
+FILMED_ROW = "sp_rl+blend"
+"""The row filmed in each scene."""
 
-    from dyncatch.viz.render import render_frames, write_video
-    from dyncatch.viz.trajectory import catch_time_s, record_episode, scene_extras
 
-    path = out / "videos" / f"fig9_{scene}.gif"
-    behavior = plan.fig9_behaviors[0]
+def _video_path(out: Path, scene: str) -> Path:
+    return out / "videos" / f"fig9_{scene}.gif"
+
+
+@dataclass(frozen=True)
+class Fig9VideoJob(Job):
+    """One GIF of a row (seed 0) in a scene."""
+
+    out: Path
+    deployed: Deployment
+    row: str
+
+    @property
+    def name(self) -> str:
+        return f"fig9 video in {self.deployed.scene}"
+
+    def run(self, progress=None) -> None:
+        d = self.deployed
+        path = _video_path(self.out, d.scene)
+
+        def compute():
+            policy, world = d.load()
+            extra = scene_extras(world, policy.cfg if d.blend else None)
+            traj = record_episode(policy, jax.random.key(0), world, extra_fn=extra)
+            write_video(render_frames(traj, world, every=5, size_px=400), path, fps=10)
+            t = catch_time_s(traj)
+            return {
+                "scene": d.scene,
+                "behavior": d.behavior,
+                "method": self.row,
+                "file": str(path.relative_to(self.out)),
+                "caught": t is not None,
+                "catch_time_s": t,
+            }
+
+        cached(path.with_suffix(".json"), compute)
+
+
+def video_jobs(plan: Plan, out: Path, row: str = FILMED_ROW) -> list[Job]:
+    """One GIF per scene of ``row`` (seed 0) on the first Fig. 9 behaviour, where missing."""
     r = row_named(row)
-
-    def compute():
-        policy, world = deployed(plan, out, scene, behavior, r, 0 if r.learned else None)
-        extra = scene_extras(world, policy.cfg if r.blend else None)
-        traj = record_episode(policy, jax.random.key(0), world, extra_fn=extra)
-        write_video(render_frames(traj, world, every=5, size_px=400), path, fps=10)
-        t = catch_time_s(traj)
-        return {
-            "scene": scene,
-            "behavior": behavior,
-            "method": row,
-            "file": str(path.relative_to(out)),
-            "caught": t is not None,
-            "catch_time_s": t,
-        }
-
-    cached(path.with_suffix(".json"), compute)
+    return [
+        Fig9VideoJob(out, deployment(plan, out, sc, plan.fig9_behaviors[0], r, 0), row)
+        for sc in plan.fig9_scenes
+        if not _video_path(out, sc).with_suffix(".json").exists()
+    ]
 
 
-def record_videos(plan: Plan, out: Path, executor, row: str = "sp_rl+blend") -> list[dict]:
-    """One GIF per scene of ``row`` (seed 0) on the first Fig. 9 behaviour."""
-    path = lambda sc: out / "videos" / f"fig9_{sc}.json"  # noqa: E731
-    executor.run(
-        [
-            Job(f"fig9 video in {sc}", _video_job, (plan, out, sc, row))
-            for sc in plan.fig9_scenes
-            if not path(sc).exists()
-        ]
-    )
-    return [json.loads(path(sc).read_text()) for sc in plan.fig9_scenes]
+def videos(plan: Plan, out: Path) -> list[dict]:
+    return [
+        json.loads(_video_path(out, sc).with_suffix(".json").read_text()) for sc in plan.fig9_scenes
+    ]
 
 
 def summarize(rows: list[dict]) -> list[dict]:
     """Cells over seeds per (scene, behaviour, row): ``aggregate.summarize_cells``'s success
     and catch time (CIs over seeds with 2+ seeds, else Wilson over episodes) plus the mean
     contacts per episode with its CI over seeds."""
-    from dyncatch.reproduce.aggregate import mean_ci, summarize_cells
-
     out = []
     for scene in dict.fromkeys(r["scene"] for r in rows):
         mine = [{**r, "speed_mps": None} for r in rows if r["scene"] == scene]

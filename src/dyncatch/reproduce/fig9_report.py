@@ -6,12 +6,13 @@ from pathlib import Path
 
 import numpy as np
 
-from dyncatch.reproduce.fig9 import row_named, rows_of
+from dyncatch.reproduce.fig9 import Fig9Row, row_named, rows_of
 from dyncatch.reproduce.paper import (
     PAPER_FIG9_METHOD,
     PAPER_FIG9_SCENE_AVERAGE,
     PAPER_FIG9_SUCCESS,
 )
+from dyncatch.reproduce.report import color, label
 
 PANELS = (
     ("success_rate", "success rate"),
@@ -21,9 +22,12 @@ PANELS = (
 
 
 def _color(row: str) -> str:
-    from dyncatch.reproduce.report import color
-
     return color(row_named(row).policy)
+
+
+def row_label(row: Fig9Row) -> str:
+    """A row's name in tables and legends: its policy's label, "+ blend" when blended."""
+    return label(row.policy) + (" + blend" if row.blend else "")
 
 
 def paper_json() -> dict:
@@ -79,7 +83,7 @@ def plot(cells: list[dict], scenes, behaviors, path: Path) -> None:
                     color=_color(row),
                     hatch="" if row_named(row).blend else "//",
                     edgecolor="white" if row_named(row).blend else "black",
-                    label=row_named(row).label,
+                    label=row_label(row_named(row)),
                 )
             if row == PAPER_FIG9_METHOD:
                 paper = [PAPER_FIG9_SUCCESS.get((sc, behavior), np.nan) for sc in scenes]
@@ -138,7 +142,7 @@ def markdown(fig9: dict, plan) -> list[str]:
             got = [by.get((sc, behavior, r.name)) for sc in scenes]
             if all(c is None for c in got):
                 continue
-            lines.append(f"| {r.label} | " + " | ".join(_cell(c) for c in got) + " |")
+            lines.append(f"| {row_label(r)} | " + " | ".join(_cell(c) for c in got) + " |")
             if r.name == PAPER_FIG9_METHOD:
                 paper = [PAPER_FIG9_SUCCESS.get((sc, behavior)) for sc in scenes]
                 if any(p is not None for p in paper):
@@ -148,7 +152,7 @@ def markdown(fig9: dict, plan) -> list[str]:
     for c in fig9.get("videos") or []:
         outcome = f"caught at {c['catch_time_s']:.1f} s" if c["caught"] else "not caught"
         lines.append(
-            f"- {row_named(c['method']).label} in [{c['scene']}]({c['file']}), "
+            f"- {row_label(row_named(c['method']))} in [{c['scene']}]({c['file']}), "
             f"{c['behavior']}: {outcome}"
         )
     return lines

@@ -119,3 +119,12 @@ def cell_name(method: str, seed: int | None) -> str:
 
 def cell_path(out: Path, table: str, behavior: str, method: str, seed: int | None) -> Path:
     return out / "eval" / table / behavior / f"{cell_name(method, seed)}.json"
+
+
+def fig6_evaluated_columns(plan: Plan) -> tuple[str, ...]:
+    """The Fig. 6 columns evaluated on their own: all of them when Fig. 6's speed is not a
+    Table I speed, else those that are not Table I rows (the others reuse Table I's cells:
+    the same policies, behaviour, speed and episode count)."""
+    if not any(abs(plan.fig6_speed_mps - v) < 1e-9 for v in plan.speeds_mps):
+        return plan.fig6_columns
+    return tuple(b for b in plan.fig6_columns if b not in plan.table_i_rows)

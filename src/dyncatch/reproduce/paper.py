@@ -1,4 +1,9 @@
-"""The paper's published numbers, for side-by-side tables (different simulator: Isaac Gym)."""
+"""The paper's published numbers, for side-by-side tables (different simulator: Isaac Gym).
+
+Every number of the paper the reproduction shows lives here: Table I, Table II and what
+the text gives of Fig. 9, with the paper's speeds, budgets and Fig. 9 scenes. The layers
+below (``predictor.table``) take them as arguments.
+"""
 
 from __future__ import annotations
 
@@ -96,6 +101,28 @@ def paper_cell(behavior: str, method: str, speed_mps: float | None) -> tuple[flo
     return None
 
 
+PAPER_TABLE_II: dict[tuple[str, str], tuple[float, ...]] = {
+    ("circle", "vanilla"): (0.001, 0.0, 0.0, 0.0),
+    ("circle", "self_aware"): (0.002, 0.001, 0.001, 0.0),
+    ("bounce", "vanilla"): (0.048, 0.022, 0.024, 0.022),
+    ("bounce", "self_aware"): (0.027, 0.039, 0.026, 0.022),
+    ("reactive", "vanilla"): (1.251, 1.201, 1.261, 1.197),
+    ("reactive", "self_aware"): (0.398, 0.211, 0.205, 0.128),
+}
+"""Table II of the paper: errors ||v_hat - v||_2 (m/s) at ``PAPER_BUDGETS``; it reports no
+random_reactive row."""
+PAPER_BUDGETS = (200_000, 500_000, 1_000_000, 2_000_000)
+"""Table II's interaction budgets (simulator steps)."""
+PAPER_TABLE_II_ERRORS: dict[tuple[str, str, int], float] = {
+    (behavior, kind, budget): error
+    for (behavior, kind), row in PAPER_TABLE_II.items()
+    for budget, error in zip(PAPER_BUDGETS, row, strict=True)
+}
+"""``PAPER_TABLE_II`` by (behaviour, kind, budget): what ``predictor.table.run_table`` takes."""
+
+
+PAPER_FIG9_SCENES = ("room_0", "room_4", "room_8", "woods_plane", "woods_rough", "woods_stairs")
+"""Our scenes for Fig. 9's Room-0/4/8 and Wood-P/R/S (``dyncatch.sim.scenes``)."""
 PAPER_FIG9_SUCCESS: dict[tuple[str, str], float] = {
     ("room_0", "circle"): 0.999,
     ("room_0", "bounce"): 0.865,

@@ -12,8 +12,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
-from dyncatch.reproduce.paper import PAPER_SPEEDS_MPS
+from dyncatch.predictor.table import all_behaviors
+from dyncatch.reproduce.paper import PAPER_FIG9_SCENES, PAPER_SPEEDS_MPS
+from dyncatch.reproduce.presentation import chosen
 from dyncatch.rl.config import PPOCfg
+from dyncatch.rl.methods import trained_methods
 from dyncatch.sim.config import WorldCfg
 from dyncatch.utils.cli_types import BehaviorName, ReadingName, SceneName
 
@@ -64,21 +67,15 @@ class Plan:
     """Rows of Table II (default: every registered behaviour)."""
     methods: tuple[str, ...] | None = None
     """Methods compared, names of dyncatch.rl.methods.METHODS (default: all but the opt-in
-    ones beyond the paper, st_rl and st_fp; list every method wanted to add them). A method
+    ones beyond the paper, st_rl and st_fp, as dyncatch.reproduce.presentation marks them;
+    list every method wanted to add them). A method
     evaluated with another's policy (sp_fp, st_fp) needs that one (gt_rl) listed too."""
     videos: bool = True
     """One GIF per behaviour of the filmed method's policy (and one per Fig. 9 scene)."""
     fig9: bool = True
     """The Fig. 9 stage: the plane-trained policies in rooms and woods, with and without
     eq. 10's collision-avoidance blend (dyncatch.reproduce.fig9); --no-fig9 skips it."""
-    fig9_scenes: tuple[SceneName, ...] = (
-        "room_0",
-        "room_4",
-        "room_8",
-        "woods_plane",
-        "woods_rough",
-        "woods_stairs",
-    )
+    fig9_scenes: tuple[SceneName, ...] = PAPER_FIG9_SCENES
     """Scenes of Fig. 9 (the paper's Room-0/4/8 and Wood-P/R/S)."""
     fig9_behaviors: tuple[BehaviorName, ...] = ("circle", "bounce", "reactive", "random_reactive")
     """Behaviours of Fig. 9: the paper's three (Sec. V-E names circle, bounce and reactive,
@@ -124,8 +121,6 @@ class Plan:
     @property
     def fig6_columns(self) -> tuple[str, ...]:
         """The behaviours of Fig. 6 and the videos."""
-        from dyncatch.predictor.table import all_behaviors
-
         return self.fig6_behaviors if self.fig6_behaviors is not None else all_behaviors()
 
     @property
@@ -136,21 +131,15 @@ class Plan:
     @property
     def table_ii_rows(self) -> tuple[str, ...]:
         """The behaviours of Table II."""
-        from dyncatch.predictor.table import all_behaviors
-
         return self.table_ii_behaviors if self.table_ii_behaviors is not None else all_behaviors()
 
     @property
     def method_names(self) -> tuple[str, ...]:
         """The methods compared, in registry order."""
-        from dyncatch.rl.methods import selected
-
-        return tuple(selected(self.methods))
+        return chosen(self.methods)
 
     @property
     def training_runs(self) -> int:
-        from dyncatch.rl.methods import trained_methods
-
         return len(trained_methods(self.method_names)) * len(self.behaviors) * self.seeds
 
     def to_json(self) -> dict:
@@ -207,120 +196,3 @@ def profile_default(plan: Plan) -> Plan:
     from dyncatch.reproduce.readings import apply_readings
 
     return apply_readings(PROFILES[plan.profile], plan.setting)
-
-
-# Measured on the idle 2-core machine; only used to print an estimate before starting.
-# The full run of 2026-12-02 (docs/results.md): a group of 3 seeds x 4 M steps took
-# 551-582 s with its compilation and periodic evaluations (training is bound by PPO's
-# update, not the simulator); Table I's 6 speeds x 1000 episodes about 20 s per policy;
-# a video 7 s. Its uncontended stages sum to about 132 min; these constants give 139.
-# A (method, behaviour)'s seeds compile once whether grouped or one by one (a process
-# reuses the compiled iteration: docs/scaling.md).
-EST_SAMPLES_PER_S = 22_000.0
-EST_COMPILE_S = 20.0  # one compilation: a training group's iteration, a Fig. 9 row's rollout
-EST_EVAL_S_PER_1000_EPISODES = 3.0
-EST_PREDICTOR_S_PER_M_STEPS = 8.0
-EST_VIDEO_S = 10.0
-
-
-def estimate_s(plan: Plan) -> float:
-    """A rough wall-time estimate (seconds) for the whole plan on 2 cores."""
-    from dyncatch.policies.registry import BASELINES
-    from dyncatch.predictor.table import all_kinds
-    from dyncatch.reproduce.stages import fig6_evaluated_columns
-    from dyncatch.rl.methods import predictor_kinds
-
-    columns = plan.fig6_columns
-    groups = plan.training_runs // plan.seeds
-    train = plan.training_runs * plan.train_steps / EST_SAMPLES_PER_S
-    train += groups * EST_COMPILE_S
-    policies = len(plan.method_names) * plan.seeds + len(BASELINES)
-    fig6 = len(fig6_evaluated_columns(plan))
-    cells = policies * (len(plan.speeds_mps) * len(plan.table_i_rows) + fig6)
-    evaluate = cells * (plan.episodes / 1000 * EST_EVAL_S_PER_1000_EPISODES + 1.0)
-    pred_steps = (
-        len(predictor_kinds(plan.method_names)) * len(plan.behaviors) * plan.predictor_steps
-    )
-    pred_steps += len(all_kinds()) * len(plan.table_ii_rows) * max(plan.table_ii_budgets)
-    predictors = pred_steps / 1e6 * EST_PREDICTOR_S_PER_M_STEPS + 30 * len(plan.behaviors)
-    videos = EST_VIDEO_S * len(columns) if plan.videos else 0.0
-    fig9 = 0.0
-    if plan.fig9:
-        from dyncatch.reproduce.fig9 import rows_of
-
-        # The seeds of a trained row share one compilation (a pytree policy is an argument).
-        rows = rows_of(plan)
-        scenes_behaviors = len(plan.fig9_scenes) * len(plan.fig9_behaviors)
-        cells = sum(plan.seeds if r.learned else 1 for r in rows) * scenes_behaviors
-        compiles = len(rows) * scenes_behaviors
-        # A 40 s episode is 2 of the 20 s ones the evaluation constant was measured on.
-        episode_s = (plan.fig9_duration_s or 40.0) / 20.0
-        per_cell = plan.fig9_episodes / 1000 * EST_EVAL_S_PER_1000_EPISODES * episode_s
-        fig9 = cells * per_cell + compiles * EST_COMPILE_S
-        fig9 += EST_VIDEO_S * len(plan.fig9_scenes) if plan.videos else 0.0
-    return train + evaluate + predictors + videos + fig9
-
-
-def validate_plan(plan: Plan) -> Plan:
-    """Raise ValueError naming the flag that cannot work."""
-    from dyncatch.rl.config import validate_ppo
-    from dyncatch.sim.behaviors import BEHAVIORS
-    from dyncatch.sim.validate import validate_world
-
-    if plan.seeds < 1:
-        raise ValueError(f"--seeds must be >= 1, got {plan.seeds}")
-    from dyncatch.reproduce.executors import validate_executor
-
-    validate_executor(plan)
-    if plan.train_steps < plan.ppo.batch_size:
-        raise ValueError(
-            f"--train-steps {plan.train_steps} is below one PPO batch ({plan.ppo.batch_size}); "
-            "raise it or shrink --ppo.num-envs / --ppo.num-steps"
-        )
-    if plan.episodes < 1:
-        raise ValueError(f"--episodes must be >= 1, got {plan.episodes}")
-    if not plan.speeds_mps or any(v < 0 for v in plan.speeds_mps + (plan.fig6_speed_mps,)):
-        raise ValueError(f"--speeds-mps must be non-negative and non-empty, got {plan.speeds_mps}")
-    bad = [b for b in plan.behaviors if b not in BEHAVIORS]
-    if bad or not plan.behaviors:
-        raise ValueError(f"--behaviors {bad or '()'}: choose from {', '.join(BEHAVIORS)}")
-    if plan.predictor_steps < 1 or plan.predictor_updates < 1 or not plan.table_ii_budgets:
-        raise ValueError(
-            "--predictor-steps, --predictor-updates and --table-ii-budgets must be set"
-        )
-    validate_ppo(plan.ppo)
-    if plan.methods is not None:
-        from dyncatch.rl.methods import check_selection
-
-        if not plan.methods:
-            raise ValueError("--methods needs at least one method (or leave it unset)")
-        check_selection(plan.methods)
-    named = (
-        ("table-i", plan.table_i_behaviors),
-        ("fig6", plan.fig6_behaviors),
-        ("table-ii", plan.table_ii_behaviors),
-    )
-    for name, value in named:
-        if value is not None and not value:
-            raise ValueError(f"--{name}-behaviors needs at least one behaviour (or leave it unset)")
-    rows = (*plan.behaviors, *plan.table_i_rows, *plan.fig6_columns, *plan.table_ii_rows)
-    for b in dict.fromkeys(rows):
-        validate_world(plan.world.with_behavior(b))
-    if plan.fig9:
-        _validate_fig9(plan)
-    return plan
-
-
-def _validate_fig9(plan: Plan) -> None:
-    from dyncatch.reproduce.fig9 import scene_world
-    from dyncatch.sim.validate import validate_world
-
-    if not plan.fig9_scenes or not plan.fig9_behaviors:
-        raise ValueError("--fig9-scenes and --fig9-behaviors need one each (or --no-fig9)")
-    if plan.fig9_episodes < 1:
-        raise ValueError(f"--fig9-episodes must be >= 1, got {plan.fig9_episodes}")
-    if plan.fig9_duration_s is not None and plan.fig9_duration_s <= 0:
-        raise ValueError(f"--fig9-duration-s must be positive, got {plan.fig9_duration_s}")
-    for scene in plan.fig9_scenes:
-        for b in plan.fig9_behaviors:
-            validate_world(scene_world(plan.world, scene, b, plan))

@@ -7,16 +7,19 @@ from pathlib import Path
 
 import numpy as np
 
+from dyncatch.policies.registry import BASELINES
+from dyncatch.predictor.table import markdown as table_ii_rows_markdown
+from dyncatch.reproduce.layout import run_dir
 from dyncatch.reproduce.paper import paper_cell
 from dyncatch.reproduce.plan import Plan
+from dyncatch.reproduce.presentation import PRESENTATION
+from dyncatch.rl.methods import trained_methods
 
 
 def _registry() -> dict:
-    """Every evaluated policy (methods, then baselines) by name, in table order."""
-    from dyncatch.policies.registry import BASELINES
-    from dyncatch.rl.methods import METHODS
-
-    return {**METHODS, **BASELINES}
+    """Every evaluated policy (methods, then baselines) by name, in table order, with its
+    ``label`` and ``color``."""
+    return {**PRESENTATION, **BASELINES}
 
 
 def policy_order() -> tuple[str, ...]:
@@ -54,9 +57,6 @@ def smooth(x: np.ndarray, window: int = 5) -> np.ndarray:
 
 
 def curves(plan: Plan, out: Path) -> dict:
-    from dyncatch.reproduce.layout import run_dir
-    from dyncatch.rl.methods import trained_methods
-
     result = {}
     for behavior in plan.behaviors:
         for method in trained_methods(plan.method_names):
@@ -258,6 +258,4 @@ def checks_markdown(checks: list[dict]) -> str:
 
 
 def table_ii_markdown(rows: list[dict]) -> str:
-    from dyncatch.predictor.table import markdown
-
-    return markdown(rows)
+    return table_ii_rows_markdown(rows)

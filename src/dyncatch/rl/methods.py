@@ -81,31 +81,22 @@ InputLayout = Literal["velocity", "track"]
 
 @dataclass(frozen=True)
 class Method:
-    """A compared method: everything other layers ask about it lives here.
+    """A compared method: what training and evaluation ask about it. How a reproduction
+    shows and judges it (label, colour, the paper's claims) is
+    ``dyncatch.reproduce.presentation``.
 
     The registry's order is the order of tables, legends and training.
     """
 
     name: str
-    label: str
-    """Name in tables and legends (the paper's where it has one)."""
-    color: str
-    """Matplotlib colour in every figure."""
     doc: str
     velocity_input: str | None = None
     """None (no prediction input), ``GROUND_TRUTH`` or a predictor kind (``vanilla``, ...)."""
     trained_as: str | None = None
     """For evaluation-only methods: the method whose trained policy is reused."""
-    beats: tuple[str, ...] = ()
-    """The paper's high-speed claims: this method catches more, and sooner, than these."""
-    filmed: bool = False
-    """The reproduction records one video per behaviour of this method's policy."""
     input_layout: InputLayout = "velocity"
     """What is appended to the observation: ``VELOCITY_INPUTS`` (where ``velocity_input``
     is set) or, from the tracker, ``TRACK_INPUTS``."""
-    reproduced: bool = True
-    """Part of a reproduction unless ``dyncatch reproduce --methods`` names it (the
-    methods beyond the paper are opt-in, so the default runs stay as long as they were)."""
 
     @property
     def trained(self) -> bool:
@@ -159,51 +150,27 @@ class Method:
 METHODS: dict[str, Method] = {
     m.name: m
     for m in (
-        Method("rl", "RL", "C0", "monolithic RL, no prediction input"),
-        Method("p_rl", "P+RL", "C1", "vanilla predictor + RL", "vanilla"),
+        Method("rl", "monolithic RL, no prediction input"),
+        Method("p_rl", "vanilla predictor + RL", "vanilla"),
         Method(
             "sp_fp",
-            "SP+FP",
-            "C2",
             "gt_rl policy run with the self-aware predictor",
             "self_aware",
             trained_as="gt_rl",
-            beats=("rl",),
         ),
-        Method(
-            "sp_rl",
-            "SP+RL (ours)",
-            "C3",
-            "self-aware predictor + RL (the paper's method)",
-            "self_aware",
-            beats=("rl", "p_rl", "sp_fp"),
-            filmed=True,
-        ),
-        Method(
-            "gt_rl",
-            "GT-Pred RL",
-            "C4",
-            "RL with the ground-truth target velocity (GT-Pred)",
-            GROUND_TRUTH,
-        ),
+        Method("sp_rl", "self-aware predictor + RL (the paper's method)", "self_aware"),
+        Method("gt_rl", "RL with the ground-truth target velocity (GT-Pred)", GROUND_TRUTH),
         Method(
             "st_fp",
-            "ST+FP",
-            "C5",
             "gt_rl policy run with the self-aware tracker's current velocity",
             TRACKER,
             trained_as="gt_rl",
-            reproduced=False,
         ),
         Method(
             "st_rl",
-            "ST+RL",
-            "C6",
             "self-aware tracker (position, velocity, uncertainty at 50 Hz) + RL",
             TRACKER,
-            beats=("sp_rl",),
             input_layout="track",
-            reproduced=False,
         ),
     )
 }
@@ -215,39 +182,21 @@ def get_method(name: str) -> Method:
     return METHODS[name]
 
 
-def reproduced_methods() -> tuple[str, ...]:
-    """The methods a reproduction compares by default (``Method.reproduced``), in registry
-    order."""
-    return tuple(name for name, m in METHODS.items() if m.reproduced)
-
-
-def selected(names: Iterable[str] | None = None) -> dict[str, Method]:
-    """The registry's entries named in ``names`` (default ``reproduced_methods()``), in
-    registry order."""
-    chosen = set(reproduced_methods() if names is None else names)
+def selected(names: Iterable[str]) -> dict[str, Method]:
+    """The registry's entries named in ``names``, in registry order."""
+    chosen = set(names)
     return {name: m for name, m in METHODS.items() if name in chosen}
 
 
-def trained_methods(names: Iterable[str] | None = None) -> tuple[str, ...]:
-    """Names of the methods PPO trains among ``names`` (default: a default reproduction's),
-    in registry order."""
+def trained_methods(names: Iterable[str]) -> tuple[str, ...]:
+    """Names of the methods PPO trains among ``names``, in registry order."""
     return tuple(name for name, m in selected(names).items() if m.trained)
 
 
-def predictor_kinds(names: Iterable[str] | None = None) -> tuple[str, ...]:
-    """The frozen predictor kinds the methods ``names`` read (default: a default
-    reproduction's), in registry order."""
+def predictor_kinds(names: Iterable[str]) -> tuple[str, ...]:
+    """The frozen predictor kinds the methods ``names`` read, in registry order."""
     kinds = (m.predictor_kind for m in selected(names).values())
     return tuple(dict.fromkeys(k for k in kinds if k is not None))
-
-
-def paper_claims(names: Iterable[str] | None = None) -> tuple[tuple[str, str], ...]:
-    """The high-speed ordering claims as (winner, loser) pairs among ``names`` (default: a
-    default reproduction's methods): the paper's, and ``st_rl > sp_rl`` of the tracker."""
-    chosen = selected(names)
-    return tuple(
-        (name, other) for name, m in chosen.items() for other in m.beats if other in chosen
-    )
 
 
 def check_selection(names: Iterable[str]) -> None:

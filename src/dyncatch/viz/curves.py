@@ -1,15 +1,16 @@
 """Learning curves of training runs from their ``metrics.csv``.
 
-``plot_runs(runs, metrics)`` returns a matplotlib ``Figure`` (no pyplot, no global state):
-one panel per metric against environment steps, one line per run, labelled by the run's
-folder and its method (read from the checkpoint's header). Metrics measured only at some
+``plot_runs(runs, metrics, method_labels)`` returns a matplotlib ``Figure`` (no pyplot, no
+global state): one panel per metric against environment steps, one line per run, labelled
+by the run's folder and its method (read from the checkpoint's header, shown by its label
+in ``method_labels`` where given). Metrics measured only at some
 iterations (``eval/*``) are drawn through the iterations that measured them.
 """
 
 from __future__ import annotations
 
 import csv
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -39,8 +40,7 @@ def read_metrics(run: str | Path) -> dict[str, np.ndarray]:
 
 
 def run_method(run: str | Path) -> str | None:
-    """The method label of a run folder's checkpoint (None without a readable checkpoint)."""
-    from dyncatch.rl.methods import METHODS
+    """The method name in a run folder's checkpoint (None without a readable checkpoint)."""
     from dyncatch.rl.runner import CHECKPOINT
     from dyncatch.utils.tree_io import read_header
 
@@ -49,11 +49,16 @@ def run_method(run: str | Path) -> str | None:
         name = read_header(path).get("method")
     except (OSError, ValueError):
         return None
-    return METHODS[name].label if name in METHODS else name
+    return name
 
 
-def run_labels(runs: Sequence[str | Path]) -> list[str]:
-    """Each run's folder name (with parents where two runs share one) and method."""
+def run_labels(
+    runs: Sequence[str | Path], method_labels: Mapping[str, str] | None = None
+) -> list[str]:
+    """Each run's folder name (with parents where two runs share one) and method, shown by
+    its ``method_labels`` entry where it has one (the reproduction's labels:
+    ``dyncatch.reproduce.presentation.method_labels``), else by its name."""
+    method_labels = method_labels or {}
     parts = [Path(r).resolve().parts for r in runs]
     depth = 1
     while depth < max(len(p) for p in parts):
@@ -63,10 +68,15 @@ def run_labels(runs: Sequence[str | Path]) -> list[str]:
         depth += 1
     names = ["/".join(p[-depth:]) for p in parts]
     methods = [run_method(r) for r in runs]
+    methods = [method_labels.get(m, m) if m else m for m in methods]
     return [f"{n} ({m})" if m else n for n, m in zip(names, methods, strict=True)]
 
 
-def plot_runs(runs: Sequence[str | Path], metrics: Sequence[str] = DEFAULT_METRICS) -> Figure:
+def plot_runs(
+    runs: Sequence[str | Path],
+    metrics: Sequence[str] = DEFAULT_METRICS,
+    method_labels: Mapping[str, str] | None = None,
+) -> Figure:
     """One panel per metric (against env steps), one line per run; returns the figure."""
     if not runs or not metrics:
         raise ValueError("give at least one run and one metric (--metrics)")
@@ -81,7 +91,7 @@ def plot_runs(runs: Sequence[str | Path], metrics: Sequence[str] = DEFAULT_METRI
     fig = Figure(figsize=(4.5 * len(metrics), 3.4), layout="constrained")
     axes = fig.subplots(1, len(metrics), squeeze=False)[0]
     for ax, metric in zip(axes, metrics, strict=True):
-        for label, columns in zip(run_labels(runs), data, strict=True):
+        for label, columns in zip(run_labels(runs, method_labels), data, strict=True):
             y = columns[metric]
             measured = ~np.isnan(y)
             ax.plot(columns[X_COLUMN][measured], y[measured], marker=".", label=label)
@@ -93,10 +103,13 @@ def plot_runs(runs: Sequence[str | Path], metrics: Sequence[str] = DEFAULT_METRI
 
 
 def save_curves(
-    runs: Sequence[str | Path], out: str | Path, metrics: Sequence[str] = DEFAULT_METRICS
+    runs: Sequence[str | Path],
+    out: str | Path,
+    metrics: Sequence[str] = DEFAULT_METRICS,
+    method_labels: Mapping[str, str] | None = None,
 ) -> Path:
     """``plot_runs`` written to ``out`` (the format from its suffix: .png, .pdf, .svg)."""
-    fig = plot_runs(runs, metrics)
+    fig = plot_runs(runs, metrics, method_labels)
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=120)

@@ -1,0 +1,76 @@
+"""A rough wall-time estimate of each stage on 2 cores, printed before a reproduction starts.
+
+Measured on the idle 2-core machine. The full run of 2026-12-02 (docs/results.md): a group
+of 3 seeds x 4 M steps took 551-582 s with its compilation and periodic evaluations
+(training is bound by PPO's update, not the simulator); Table I's 6 speeds x 1000 episodes
+about 20 s per policy; a video 7 s. Its uncontended stages sum to about 132 min; these
+constants give 139. A (method, behaviour)'s seeds compile once whether grouped or one by
+one (a process reuses the compiled iteration: docs/scaling.md).
+"""
+
+from __future__ import annotations
+
+from dyncatch.policies.registry import BASELINES
+from dyncatch.predictor.table import all_kinds
+from dyncatch.reproduce.fig9 import rows_of
+from dyncatch.reproduce.layout import fig6_evaluated_columns
+from dyncatch.reproduce.plan import Plan
+from dyncatch.rl.methods import predictor_kinds
+
+EST_SAMPLES_PER_S = 22_000.0
+EST_COMPILE_S = 20.0  # one compilation: a training group's iteration, a Fig. 9 row's rollout
+EST_EVAL_S_PER_1000_EPISODES = 3.0
+EST_PREDICTOR_S_PER_M_STEPS = 8.0
+EST_VIDEO_S = 10.0
+
+
+def predictors_s(plan: Plan) -> float:
+    steps = len(predictor_kinds(plan.method_names)) * len(plan.behaviors) * plan.predictor_steps
+    return steps / 1e6 * EST_PREDICTOR_S_PER_M_STEPS + 30 * len(plan.behaviors)
+
+
+def table_ii_s(plan: Plan) -> float:
+    steps = len(all_kinds()) * len(plan.table_ii_rows) * max(plan.table_ii_budgets)
+    return steps / 1e6 * EST_PREDICTOR_S_PER_M_STEPS
+
+
+def training_s(plan: Plan) -> float:
+    groups = plan.training_runs // plan.seeds
+    return plan.training_runs * plan.train_steps / EST_SAMPLES_PER_S + groups * EST_COMPILE_S
+
+
+def _policies(plan: Plan) -> int:
+    return len(plan.method_names) * plan.seeds + len(BASELINES)
+
+
+def _per_cell_s(plan: Plan) -> float:
+    return plan.episodes / 1000 * EST_EVAL_S_PER_1000_EPISODES + 1.0
+
+
+def table_i_s(plan: Plan) -> float:
+    cells = _policies(plan) * len(plan.speeds_mps) * len(plan.table_i_rows)
+    return cells * _per_cell_s(plan)
+
+
+def fig6_s(plan: Plan) -> float:
+    return _policies(plan) * len(fig6_evaluated_columns(plan)) * _per_cell_s(plan)
+
+
+def videos_s(plan: Plan) -> float:
+    return EST_VIDEO_S * len(plan.fig6_columns)
+
+
+def fig9_s(plan: Plan) -> float:
+    # The seeds of a trained row share one compilation (a pytree policy is an argument).
+    rows = rows_of(plan)
+    scenes_behaviors = len(plan.fig9_scenes) * len(plan.fig9_behaviors)
+    cells = sum(plan.seeds if r.learned else 1 for r in rows) * scenes_behaviors
+    compiles = len(rows) * scenes_behaviors
+    # A 40 s episode is 2 of the 20 s ones the evaluation constant was measured on.
+    episode_s = (plan.fig9_duration_s or 40.0) / 20.0
+    per_cell = plan.fig9_episodes / 1000 * EST_EVAL_S_PER_1000_EPISODES * episode_s
+    return cells * per_cell + compiles * EST_COMPILE_S
+
+
+def fig9_videos_s(plan: Plan) -> float:
+    return EST_VIDEO_S * len(plan.fig9_scenes)

@@ -1,0 +1,139 @@
+"""``report.md``: the reproduction's results (``results.json``) as one Markdown page."""
+
+from __future__ import annotations
+
+from dyncatch.reproduce import fig9_report, layout, report
+from dyncatch.reproduce.plan import Plan
+from dyncatch.reproduce.report import label
+from dyncatch.rl.methods import trained_methods
+
+
+def render_report(r: dict, plan: Plan) -> str:
+    m = r["machine"]
+    lines = [
+        f"# dyncatch reproduction ({plan.profile} profile)",
+        "",
+        f"- scene: `{r['scene']}` (docs/model.md); setting: `{r['setting']}` (readings of "
+        "the paper, docs/fidelity.md)",
+        f"- command: `{r['command']}`",
+        f"- commit: `{r['commit']}`",
+        f"- machine: {m['cpu']}, {m['cores']} cores, jax {m['jax']} ({m['backend']})",
+        f"- wall time: {r['wall']['total_s'] / 60:.1f} min in all "
+        f"({r['wall']['this_invocation_s'] / 60:.1f} min in the last invocation)",
+        f"- {plan.seeds} seed(s) x {len(trained_methods(plan.method_names))} learned methods x "
+        f"{len(plan.behaviors)} "
+        f"behaviours, {plan.train_steps / 1e6:g} M environment steps per run, "
+        f"{plan.episodes} evaluation episodes per cell (the same evaluation seeds for every "
+        "policy, disjoint from training).",
+        "",
+        "**Our numbers come from dyncatch's JAX simulator, not the paper's Isaac Gym set-up;"
+        " the paper's values are shown beside ours for reference only.** Cells are success "
+        "rate [95 % CI] / mean catch time (s, a failure counts as the 20 s limit). The CI is "
+        "over seeds (Student t) when there are 2+ seeds, else the Wilson interval over "
+        "episodes; baselines (pursuit, intercept) have no seeds.",
+        "",
+    ]
+    cells, averages = r["table_i"]["cells"], r["table_i"]["average"]
+    for behavior in plan.table_i_rows:
+        src = layout.source_behavior(plan, behavior)
+        lines += [
+            f"## Table I: {behavior}"
+            + ("" if src == behavior else f" (policies trained on {src}: transfer)"),
+            "",
+            report.table_i_markdown(cells, averages, behavior, plan.speeds_mps),
+            "",
+        ]
+    lines += [
+        "![Table I](figures/table_i.png)",
+        "",
+        "## The paper's ordering at high speed",
+        "",
+        "Each claim is judged on success (first method's rate minus second's; 95 % CI "
+        "Welch over seeds with 2+ seeds, else normal on pooled episodes) and, with 2+ "
+        "seeds, on catch time (second method's mean catch time minus first's, the seconds "
+        "the first saves; Welch CI over seeds). 'holds' means the CI is above 0.",
+        "",
+        report.checks_markdown(r["ordering_checks"]),
+        "",
+    ]
+    if r.get("headroom"):
+        lines += [
+            "## Headroom: the oracle against the best non-oracle method",
+            "",
+            "At each speed, the policy that reads the target's true velocity against the best "
+            "method that does not (highest success, then shortest catch time), judged as the "
+            "claims above. 'holds': the benchmark leaves measurable room to improve.",
+            "",
+            report.checks_markdown(r["headroom"]),
+            "",
+        ]
+    lines += [
+        "## Fig. 5: learning curves",
+        "",
+        "![Fig. 5](figures/fig5_learning_curves.png)",
+        "",
+        "Top: periodic evaluations of the mean-action policy during training (same "
+        "evaluation seeds each time). Wall seconds are training time, compilation "
+        "included and evaluations excluded.",
+        "",
+        f"| behaviour | method | seed | final success at {plan.fig6_speed_mps} m/s | "
+        "samples to 0.9 | "
+        "wall s to 0.9 | run wall s |",
+        "|---|---|---:|---:|---:|---:|---:|",
+    ]
+    for t in r["training"]:
+        s, w, total = t["to_0.9"]["samples"], t["to_0.9"]["time_s"], t["wall_s"]
+        s = "-" if s is None else f"{s / 1e6:.2f} M"
+        w = "-" if w is None else f"{w:.0f}"
+        total = "-" if total is None else f"{total:.0f}"
+        final = t["final_eval_success_rate"]
+        final = "-" if final is None else f"{final:.3f}"
+        lines.append(
+            f"| {t['behavior']} | {t['method']} | {t['seed']} | {final} | {s} | {w} | {total} |"
+        )
+    src = ", ".join(f"{b} -> {layout.source_behavior(plan, b)}" for b in plan.fig6_columns)
+    lines += [
+        "",
+        f"## Fig. 6: {plan.fig6_speed_mps} m/s on {', '.join(plan.fig6_columns)}",
+        "",
+        f"Policies evaluated on a behaviour they were not trained on come from the first "
+        f"trained behaviour (evaluated -> trained on: {src}).",
+        "",
+        report.fig6_markdown(r["fig6"]["cells"]),
+        "",
+        "![Fig. 6](figures/fig6_high_speed.png)",
+        "",
+    ]
+    lines += [
+        "## Table II: predictor error ||v_hat - v|| (m/s), ours (paper)",
+        "",
+        report.table_ii_markdown(r["table_ii"]),
+        "",
+        "![Table II](table_ii/table_ii.png)",
+        "",
+        "Frozen predictors the methods read (held-out velocity error, m/s; the tracker's is "
+        "its current velocity's, with its 50 Hz position error and coverage95):",
+        "",
+    ]
+    for p in r["predictors"]:
+        track = ""
+        if "position_error_m" in p:
+            track = (
+                f", position {p['position_error_m']:.3f} m (last sighting "
+                f"{p['hold_position_error_m']:.3f} m), coverage95 {p['coverage95']:.3f}"
+            )
+        lines.append(
+            f"- {p['behavior']} {p['kind']}: {p['error_mps']:.3f}{track} "
+            f"({p['budget_steps'] / 1e6:g} M steps)"
+        )
+    if r["fig9"] is not None:
+        lines += ["", *fig9_report.markdown(r["fig9"], plan)]
+    if r["videos"]:
+        lines += ["", "## Videos, with the FoV cone and the predicted-velocity arrow", ""]
+        for c in r["videos"]:
+            outcome = f"caught at {c['catch_time_s']:.1f} s" if c["caught"] else "not caught"
+            lines.append(
+                f"- {label(c['method'])} [{c['behavior']}]({c['file']}) at "
+                f"{c['speed_mps']} m/s, policy trained on {c['trained_on']}: {outcome}"
+            )
+    return "\n".join(lines) + "\n"
