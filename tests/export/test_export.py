@@ -159,9 +159,11 @@ def test_the_layout_names_the_slots_of_the_real_input_vectors(runs, recorded):
         if hasattr(obs, name):
             np.testing.assert_array_equal(value, np.asarray(getattr(obs, name)).reshape(1000, -1))
     v_world = jax.vmap(lambda target: target.vel_mps)(states.target)
-    v_body = world_to_body(v_world, states.robot.yaw_rad)
+    # GT-Pred is given where the predictor's input is: two consecutive sightings.
+    ok = np.asarray(states.sensor.consecutive, np.float32)[:, None]
+    v_body = world_to_body(v_world, states.robot.yaw_rad) * ok
     np.testing.assert_allclose(named["target_vel_body_mps"], v_body, atol=1e-6)
-    np.testing.assert_array_equal(named["target_vel_defined"], 1.0)
+    np.testing.assert_array_equal(named["target_vel_defined"], ok)
     assert {e["unit"] for e in manifest["policy"]["inputs"][0]["layout"]} >= {"m", "m/s", "s"}
     assert manifest["rates_hz"] == {"control": 50.0, "camera": 2.0}
     assert manifest["method"] == "gt_rl" and manifest["versions"]["opset"] == 20

@@ -7,7 +7,7 @@ import pytest
 
 from dyncatch.predictor.config import PredictorCfg
 from dyncatch.predictor.model import Predictor
-from dyncatch.rl.methods import METHODS, method_obs
+from dyncatch.rl.methods import GROUND_TRUTH, METHODS, MethodObs, method_obs
 from dyncatch.sim import env
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.geometry import world_to_body
@@ -31,6 +31,8 @@ def test_registry_holds_the_paper_methods():
 
 def test_rl_sees_the_plain_observation_and_gt_rl_the_true_velocity_in_the_base_frame():
     s, obs = _state_after(3)
+    # GT-Pred is given where the predictor's input is (two consecutive sightings).
+    s = s.replace(sensor=s.sensor.replace(consecutive=jnp.array(True)))
     np.testing.assert_array_equal(method_obs("rl")(s, obs), obs.flat)
     x = method_obs("gt_rl")(s, obs)
     assert x.shape == (OBS_DIM + 3,)
@@ -155,7 +157,8 @@ def test_a_time_out_bootstraps_from_the_input_at_its_own_episodes_end():
 
     world = WORLD.replace(episode=WORLD.episode.replace(duration_s=0.1))  # 5 steps
     e = as_env(world)
-    f = method_obs("gt_rl")
+    # Read 'always': 5 steps see no two frames, so the masked reading would be 0 in both.
+    f = MethodObs(GROUND_TRUTH, ground_truth="always")
     vstep, vinit = jax.vmap(f.step), jax.vmap(f.init_carry)
     action = jnp.zeros((2, 3))
     state = batch_reset(jax.random.key(1), e, 2)
@@ -171,3 +174,46 @@ def test_a_time_out_bootstraps_from_the_input_at_its_own_episodes_end():
         np.testing.assert_allclose(final_x[i], f(end_state, end_obs), rtol=1e-6, atol=1e-6)
         restarted = jax.tree.map(lambda a, i=i: a[i], state)
         assert not np.allclose(final_x[i], f(restarted, end_obs))  # what the bug read
+
+
+class TestGroundTruthReading:
+    """GT-Pred under the predictor's availability rule, and a normaliser that never
+    amplifies an input it saw no spread of (issue 31)."""
+
+    def test_the_oracle_is_masked_like_the_predictor(self):
+        s, obs = _state_after(1)
+        assert not bool(s.sensor.consecutive)
+        np.testing.assert_array_equal(method_obs("gt_rl")(s, obs)[OBS_DIM:], 0.0)
+
+        always = MethodObs(GROUND_TRUTH, ground_truth="always")(s, obs)
+        assert float(always[-1]) == 1.0
+        seen = s.replace(sensor=s.sensor.replace(consecutive=jnp.array(True)))
+        x = method_obs("gt_rl")(seen, obs)
+        assert float(x[-1]) == 1.0
+        np.testing.assert_allclose(
+            x[OBS_DIM : OBS_DIM + 2], world_to_body(s.target.vel_mps, s.robot.yaw_rad), atol=1e-6
+        )
+
+    @pytest.mark.parametrize("reading", ["when_predicted", "always"])
+    def test_a_trained_gt_rl_policy_feeds_a_bounded_input_with_the_flag_at_0(self, reading):
+        from dyncatch.rl.config import PPOCfg
+        from dyncatch.rl.train import make_train
+
+        f = MethodObs(GROUND_TRUTH, ground_truth=reading)
+        ppo = PPOCfg(
+            num_envs=16, num_steps=40, num_minibatches=1, update_epochs=1, hidden_sizes=(8,)
+        )
+        init, iterate, _ = make_train(WORLD, ppo, f)
+        ts = jax.jit(init)(jax.random.key(0))
+        for _ in range(2):
+            ts, _ = jax.jit(iterate)(ts)
+        flag_std = float(jnp.sqrt(ts.norm.var[-1]))
+        if reading == "always":
+            # The flag never varied: without the floor, 0 would land on the clip (-10).
+            assert flag_std < 1e-3
+            assert float(ts.norm.replace(min_std=0.0)(jnp.zeros_like(ts.norm.mean))[-1]) == -10.0
+        else:
+            assert flag_std > 0.1
+        z = ts.norm(ts.norm.mean.at[-1].set(0.0))
+        # |0 - mean| <= 1 and the scale >= min_std = 0.5: at most 2 from the training mean.
+        assert abs(float(z[-1])) <= 1 / ppo.obs_min_std + 1e-6

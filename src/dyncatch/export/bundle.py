@@ -88,8 +88,9 @@ def export(run: Run, out: str | Path, source: dict | None = None) -> dict:
     low, high = np.asarray(spec.low, np.float32), np.asarray(spec.high, np.float32)
     inputs = policy_layout(obs_fn)
     doc = f"dyncatch {run.method} policy ({run.behavior}): obs (batch, D) -> command (batch, 3)"
+    norm = policy.norm
     model = policy_model(
-        policy.params["params"]["actor"], policy.norm.mean, policy.norm.var, low, high, doc
+        policy.params["params"]["actor"], norm.mean, norm.var, low, high, doc, norm.min_std
     )
     manifest = {
         "format": FORMAT,

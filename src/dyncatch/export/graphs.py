@@ -3,7 +3,7 @@
 The graphs are written with ``onnx.helper`` from the arrays the JAX code uses, each op the
 one the JAX code applies, in the same order (so float32 results agree to rounding):
 
-- policy: ``(obs - mean) / sqrt(var + 1e-8)``, clipped to [-10, 10] (``RunningNorm``);
+- policy: ``(obs - mean) / max(sqrt(var + 1e-8), min_std)``, clipped to [-10, 10] (``RunningNorm``);
   the actor MLP (``MatMul`` + ``Add``, ``Elu``; the critic and the log-std are left out:
   the deployed action is the mean); the clip to [-1, 1] and ``to_command``'s scaling
   ``low + (a + 1) * 0.5 * (high - low)``.
@@ -88,15 +88,19 @@ def _value_info(name: str, dims: list) -> onnx.ValueInfoProto:
     return helper.make_tensor_value_info(name, TensorProto.FLOAT, dims)
 
 
-def policy_model(actor: dict, norm_mean, norm_var, low, high, doc: str = "") -> onnx.ModelProto:
+def policy_model(
+    actor: dict, norm_mean, norm_var, low, high, doc: str = "", min_std: float = 0.0
+) -> onnx.ModelProto:
     """``obs`` (batch, D) -> ``command`` (batch, 3): (vx m/s, vy m/s, yaw rate rad/s).
 
     ``actor`` is the actor MLP's flax params (``params["params"]["actor"]``); ``norm_mean``
     and ``norm_var`` (D,) the observation normaliser's statistics; ``low`` and ``high`` (3,)
-    the command limits the policy was trained with.
+    the command limits the policy was trained with; ``min_std`` the normaliser's floor of
+    its scale (``RunningNorm.min_std``).
     """
     mean = np.asarray(norm_mean, np.float32)
     std = np.sqrt(np.asarray(norm_var, np.float32) + np.float32(NORM_EPS))
+    std = np.maximum(std, np.float32(min_std))
     low, high = np.asarray(low, np.float32), np.asarray(high, np.float32)
     layers = dense_layers(actor)
     g = _Graph()

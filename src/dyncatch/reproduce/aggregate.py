@@ -1,30 +1,30 @@
 """Seeds to means and 95 % confidence intervals, the ordering checks of the paper, and the
-benchmark's headroom (the oracle against the best non-oracle method)."""
+benchmark's headroom (the oracle against the best non-oracle method).
+
+Seeds are the unit (``evaluation.intervals``): t-intervals with scipy's quantiles, Welch
+differences with Satterthwaite's df. The checks matching a ``PRIMARY_ENDPOINTS`` entry are
+judged unadjusted and carry the smallest difference the run resolves; every other check is
+secondary, judged on Holm-adjusted p-values over its family (``judge_family``)."""
 
 from __future__ import annotations
 
-import math
+from collections.abc import Sequence
 
 import numpy as np
 
+from dyncatch.evaluation.intervals import (
+    CONFIDENCE,
+    Difference,
+    holm,
+    mean_ci,
+    proportion_difference,
+    seeds_for_power,
+    welch,
+)
 from dyncatch.evaluation.stats import wilson_ci95
+from dyncatch.reproduce.endpoints import PRIMARY_ENDPOINTS, Endpoint
 
-T95 = {1: 12.706, 2: 4.303, 3: 3.182, 4: 2.776, 5: 2.571, 6: 2.447, 7: 2.365, 8: 2.306, 9: 2.262}
-"""Two-sided 95 % Student-t quantiles by degrees of freedom (1.96 beyond)."""
-
-
-def t95(df: int) -> float:
-    return T95.get(df, 1.96)
-
-
-def mean_ci(values: list[float]) -> tuple[float, tuple[float, float] | None]:
-    """Mean and t-interval over seeds (None with a single seed)."""
-    x = np.asarray(values, float)
-    m = float(x.mean())
-    if x.size < 2:
-        return m, None
-    half = t95(x.size - 1) * float(x.std(ddof=1)) / math.sqrt(x.size)
-    return m, (m - half, m + half)
+__all__ = ["mean_ci"]  # re-exported: fig9 summarises its contacts with it
 
 
 def clip01(ci: tuple[float, float] | None) -> list[float] | None:
@@ -102,29 +102,29 @@ def average_column(cells: list[dict]) -> list[dict]:
     return out
 
 
-def _welch_half(sa: list[float], sb: list[float]) -> float:
-    se = math.sqrt(np.var(sa, ddof=1) / len(sa) + np.var(sb, ddof=1) / len(sb))
-    return t95(min(len(sa), len(sb)) - 1) * se
-
-
-def _judged(metric: str, difference: float, half: float) -> dict:
-    lo, hi = difference - half, difference + half
-    verdict = "holds" if lo > 0 else ("reversed" if hi < 0 else "unresolved (CI spans 0)")
-    return {"metric": metric, "difference": difference, "ci95": [lo, hi], "verdict": verdict}
+def _judged(metric: str, d: Difference) -> dict:
+    """A check's numbers; ``judge_family`` adds its role and verdict."""
+    return {
+        "metric": metric,
+        "difference": d.difference,
+        "ci95": list(d.ci),
+        "half_width": d.half_width,
+        "df": d.df,
+        "p_value": d.p_value,
+    }
 
 
 def gap(a: dict, b: dict) -> dict:
-    """Success of ``a`` minus ``b`` with a 95 % CI: Welch over seeds when both have 2+
-    seeds, else a normal interval on the pooled episode proportions."""
+    """Success of ``a`` minus ``b`` with a 95 % CI: Welch over seeds (Satterthwaite's df)
+    when both have 2+ seeds, else a normal interval on the pooled episode proportions."""
     sa, sb = a["per_seed_success"], b.get("per_seed_success", [b["success_rate"]])
-    d = a["success_rate"] - b["success_rate"]
     if len(sa) >= 2 and len(sb) >= 2:
-        half = _welch_half(sa, sb)
-    else:
-        na, nb = a["episodes"], b["episodes"]
-        pa, pb = a["success_rate"], b["success_rate"]
-        half = 1.96 * math.sqrt(max(pa * (1 - pa), 1e-12) / na + max(pb * (1 - pb), 1e-12) / nb)
-    return _judged("success_rate", d, half)
+        out = _judged("success_rate", welch(sa, sb))
+        out["sd"] = [float(np.std(sa, ddof=1)), float(np.std(sb, ddof=1))]
+        out["seeds"] = [len(sa), len(sb)]
+        return out
+    d = proportion_difference(a["success_rate"], a["episodes"], b["success_rate"], b["episodes"])
+    return _judged("success_rate", d)
 
 
 def time_gap(a: dict, b: dict) -> dict | None:
@@ -134,13 +134,81 @@ def time_gap(a: dict, b: dict) -> dict | None:
     sa, sb = a.get("per_seed_catch_time_s", []), b.get("per_seed_catch_time_s", [])
     if len(sa) < 2 or len(sb) < 2:
         return None
-    return _judged("catch_time_s", b["catch_time_s"] - a["catch_time_s"], _welch_half(sa, sb))
+    return _judged("catch_time_s", welch(sb, sa))
+
+
+def _verdict(difference: float, significant: bool) -> str:
+    if not significant:
+        return "unresolved (CI spans 0)"
+    return "holds" if difference > 0 else "reversed"
+
+
+def _primary(check: dict, endpoint: Endpoint, alpha: float) -> dict:
+    lo, hi = check["ci95"]
+    out = {
+        "role": "primary",
+        "endpoint": endpoint.name,
+        "margin": endpoint.margin,
+        "smallest_resolvable_difference": check["half_width"],
+        "equivalent_within_margin": -endpoint.margin < lo and hi < endpoint.margin,
+        "verdict": _verdict(check["difference"], check["p_value"] < alpha),
+    }
+    if "sd" in check:
+        out["seeds_for_80pct_power_at_margin"] = seeds_for_power(endpoint.margin, *check["sd"])
+    return out
+
+
+def judge_family(
+    checks: list[dict],
+    endpoints: Sequence[Endpoint] = PRIMARY_ENDPOINTS,
+    confidence: float = CONFIDENCE,
+) -> list[dict]:
+    """Label and judge ``checks`` as one family: those matching an endpoint are ``primary``
+    (judged on their own p-value, with ``smallest_resolvable_difference``, the CI's
+    half-width, and the seeds per method for 80 % power at the endpoint's margin); the rest
+    are ``secondary``, judged on Holm-adjusted p-values over all of them (``p_holm``,
+    ``family_size``). Reads only the raw numbers, so judging a union again is exact: call
+    it once on every ordering and headroom check of a run."""
+    alpha = 1 - confidence
+    out, secondary = [], []
+    for c in checks:
+        c = {k: v for k, v in c.items() if k not in _JUDGEMENT_KEYS}
+        endpoint = next((e for e in endpoints if e.matches(c)), None)
+        if endpoint is None:
+            c["role"] = "secondary"
+            secondary.append(c)
+        else:
+            c.update(_primary(c, endpoint, alpha))
+        out.append(c)
+    for c, p in zip(secondary, holm([c["p_value"] for c in secondary]), strict=True):
+        c["p_holm"] = float(p)
+        c["family_size"] = len(secondary)
+        c["verdict"] = _verdict(c["difference"], p < alpha)
+        if p >= alpha and c["p_value"] < alpha:
+            c["verdict"] = "unresolved (after Holm)"
+    return out
+
+
+_JUDGEMENT_KEYS = frozenset(
+    {
+        "role",
+        "endpoint",
+        "margin",
+        "smallest_resolvable_difference",
+        "equivalent_within_margin",
+        "seeds_for_80pct_power_at_margin",
+        "verdict",
+        "p_holm",
+        "family_size",
+    }
+)
 
 
 def ordering_checks(cells: list[dict], speeds, claims) -> list[dict]:
-    """Each claim ``(winner, loser)`` (``dyncatch.rl.methods.paper_claims()``) on success
+    """Each claim ``(winner, loser)`` (``dyncatch.reproduce.presentation.paper_claims()``) on success
     (``metric`` success_rate: difference in rate) and, with 2+ seeds, on catch time
-    (``metric`` catch_time_s: seconds the first method saves)."""
+    (``metric`` catch_time_s: seconds the first method saves); judged by ``judge_family``
+    over these checks alone (a run judges all its checks as one family again)."""
     by = {(c["behavior"], c["method"], c["speed_mps"]): c for c in cells}
     checks = []
     for behavior in dict.fromkeys(c["behavior"] for c in cells):
@@ -149,12 +217,17 @@ def ordering_checks(cells: list[dict], speeds, claims) -> list[dict]:
                 a, b = by.get((behavior, hi, speed)), by.get((behavior, lo, speed))
                 if a is None or b is None:
                     continue
-                where = {"behavior": behavior, "speed_mps": speed, "claim": f"{hi} > {lo}"}
+                where = {
+                    "kind": "ordering",
+                    "behavior": behavior,
+                    "speed_mps": speed,
+                    "claim": f"{hi} > {lo}",
+                }
                 checks.append({**where, **gap(a, b)})
                 faster = time_gap(a, b)
                 if faster is not None:
                     checks.append({**where, **faster})
-    return checks
+    return judge_family(checks)
 
 
 def best_rival(cells: list[dict]) -> dict:
@@ -167,7 +240,8 @@ def headroom_checks(cells: list[dict], speeds, oracle: str, rivals) -> list[dict
     the best of ``rivals`` there (``best_rival``), judged as ``ordering_checks`` judges a
     claim (``claim`` is ``"oracle > best"``, ``best_non_oracle`` names the best), on success
     and, with 2+ seeds, on catch time. 'holds' means the oracle is measurably better: a
-    method that reads what a robot can sense has room to improve."""
+    method that reads what a robot can sense has room to improve. Judged by
+    ``judge_family`` over these checks alone, as ``ordering_checks``."""
     by = {(c["behavior"], c["method"], c["speed_mps"]): c for c in cells}
     checks = []
     for behavior in dict.fromkeys(c["behavior"] for c in cells):
@@ -178,6 +252,7 @@ def headroom_checks(cells: list[dict], speeds, oracle: str, rivals) -> list[dict
                 continue
             best = best_rival(found)
             where = {
+                "kind": "headroom",
                 "behavior": behavior,
                 "speed_mps": speed,
                 "claim": f"{oracle} > {best['method']}",
@@ -187,4 +262,4 @@ def headroom_checks(cells: list[dict], speeds, oracle: str, rivals) -> list[dict
             faster = time_gap(top, best)
             if faster is not None:
                 checks.append({**where, **faster})
-    return checks
+    return judge_family(checks)

@@ -242,17 +242,25 @@ MEASURE_LABEL = {"success_rate": "success rate", "catch_time_s": "catch time (s 
 
 
 def checks_markdown(checks: list[dict]) -> str:
+    """The checks as a table: primary endpoints with the smallest difference the run
+    resolves (the CI's half-width), secondary ones with their Holm-adjusted p-value."""
     lines = [
-        "| behaviour | speed | claim | measure | difference [95% CI] | verdict |",
-        "|---|---|---|---|---|---|",
+        "| behaviour | speed | claim | measure | difference [95% CI] | p (Holm) | role | verdict |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for c in checks:
         speed = "average" if c["speed_mps"] is None else f"{c['speed_mps']:.1f} m/s"
         lo, hi = c["ci95"]
         measure = MEASURE_LABEL[c.get("metric", "success_rate")]
+        p = f"{c['p_value']:.3g}" if "p_value" in c else ""
+        if "p_holm" in c:
+            p += f" ({c['p_holm']:.3g})"
+        role = c.get("role", "")
+        if role == "primary":
+            role += f", resolves +-{c['smallest_resolvable_difference']:.3f}"
         lines.append(
             f"| {c['behavior']} | {speed} | {c['claim']} | {measure} | {c['difference']:+.3f} "
-            f"[{lo:+.3f}, {hi:+.3f}] | {c['verdict']} |"
+            f"[{lo:+.3f}, {hi:+.3f}] | {p} | {role} | {c['verdict']} |"
         )
     return "\n".join(lines)
 

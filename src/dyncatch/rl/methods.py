@@ -33,6 +33,28 @@ from dyncatch.sim.state import EnvState, Obs
 GROUND_TRUTH = "ground_truth"
 """The velocity input of the oracle: the target's true velocity (the paper's GT-Pred)."""
 
+GroundTruthReading = Literal["when_predicted", "always"]
+"""How GT-Pred reads "ground truth prediction" (Section V-C):
+
+- ``when_predicted`` (default): the target's true velocity where the predictor gives one
+  (the last two camera frames both saw the target), else 0 with the flag at 0: the
+  predictor's availability rule, in the predictor's frame (world velocity rotated into the
+  current base frame). A policy trained on it has seen the flag at 0, so SP+FP, which
+  swaps in the predictor, changes only the value, never the input's distribution.
+- ``always``: the true velocity at every step, the flag always 1 (before issue 31). Its
+  flag has no spread in training, so SP+FP's flag at 0 is an input never seen.
+
+The value is the target's instantaneous velocity: its commanded heading at the speed cap,
+which Section III-A names what the predictor approximates, "the object's desired velocity
+in the next step". The predictor's label, the mean velocity over the next camera period
+(``predictor.data``), needs positions up to the next frame, which depend on the policy's
+own next actions when the target reacts to the robot: it cannot be computed inside the
+step without running the policy ahead of itself.
+"""
+
+GROUND_TRUTH_READING: GroundTruthReading = "when_predicted"
+"""The reading every ``gt_rl`` run trains and evaluates with."""
+
 VELOCITY_INPUTS: tuple[tuple[str, int, str], ...] = (
     (
         "target_vel_body_mps",
@@ -43,8 +65,8 @@ VELOCITY_INPUTS: tuple[tuple[str, int, str], ...] = (
     (
         "target_vel_defined",
         1,
-        "1 if the velocity is defined (ground truth: always; a predictor: the last two camera "
-        "frames both saw the target), else 0",
+        "1 if the velocity is defined (the last two camera frames both saw the target; ground "
+        "truth read 'always': always), else 0",
     ),
 )
 """(name, size, meaning) of what a method with a velocity input appends to ``Obs.flat``."""
@@ -228,6 +250,8 @@ class MethodObs:
     predictor: Predictor | Tracker | None = struct.field(pytree_node=False, default=None)
     predictor_params: object = None
     input_layout: InputLayout = struct.field(pytree_node=False, default="velocity")
+    ground_truth: GroundTruthReading = struct.field(pytree_node=False, default=GROUND_TRUTH_READING)
+    """How the oracle's input reads the ground truth (``GroundTruthReading``)."""
 
     @property
     def stateful(self) -> bool:
@@ -261,11 +285,13 @@ class MethodObs:
         """(world velocity (2,), defined flag ()) of a stateless input."""
         if self.stateful:
             raise ValueError("a tracker's velocity needs its carry: use MethodObs.step")
+        ok = state.sensor.consecutive
         if self.velocity_input == GROUND_TRUTH:
-            return state.target.vel_mps, jnp.ones(())
+            if self.ground_truth == "always":
+                return state.target.vel_mps, jnp.ones(())
+            return jnp.where(ok, state.target.vel_mps, 0.0), ok.astype(jnp.float32)
         history = history_from_state(state)
         v = self.predictor.predict(self.predictor_params, history)
-        ok = state.sensor.consecutive
         return jnp.where(ok, v, 0.0), ok.astype(jnp.float32)
 
     def layout(self) -> tuple[tuple[str, int], ...]:

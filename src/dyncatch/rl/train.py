@@ -182,7 +182,7 @@ def make_train(
         return TrainState(
             params=params,
             opt_state=optimizer.init(params),
-            norm=RunningNorm.create(x.shape[-1]),
+            norm=RunningNorm.create(x.shape[-1], ppo.obs_min_std),
             env_state=env_state,
             obs=obs,
             key=k_next,
