@@ -57,7 +57,7 @@ bench: $(STAMP)
 	$(BIN)/dyncatch bench env
 
 # Stable-Baselines3 and skrl (torch) trained on the Gymnasium adapters at their full budget,
-# then evaluated as `dyncatch eval` does (docs/ecosystem_gym.md). Not part of `make test`.
+# then evaluated as `dyncatch eval` does (docs/ecosystem.md). Not part of `make test`.
 examples: $(STAMP)
 	$(BIN)/python -m pip install -q -e '.[dev,examples]'
 	$(BIN)/python examples/sb3_ppo.py
