@@ -20,6 +20,7 @@ import jax
 from jax.sharding import Mesh
 
 from dyncatch.rl.config import PPOCfg, validate_ppo
+from dyncatch.rl.guard import check_finite
 from dyncatch.rl.logging import MetricLog, validate_loggers
 from dyncatch.rl.methods import get_method
 from dyncatch.rl.train import TrainState, make_train
@@ -249,9 +250,11 @@ class TrainRunner:
         # continued across resumes.
         clock0 = time.perf_counter() - log.last("time_s")
         t0 = None  # the rate's clock starts after the first (compiling) iteration
+        saved = start if cfg.resume else None  # the iteration of the checkpoint on disk
         for it in range(start, total_iters):
             ts, m = self._iterate(ts)
             metrics = {k: float(v) for k, v in jax.device_get(m).items()}
+            check_finite(ts.params, ts.norm, metrics, it + 1, self.checkpoint, saved)
             metrics["time_s"] = time.perf_counter() - clock0
             if eval_due(cfg, it, start, total_iters):
                 t_eval = time.perf_counter()
@@ -267,4 +270,5 @@ class TrainRunner:
             update(it + 1, f"{rate:,.0f} samples/s  success {metrics['success_rate']:.2f}")
             if (it + 1) % cfg.checkpoint_every == 0 or it + 1 == total_iters:
                 self.save(ts)
+                saved = it + 1
         return metrics
