@@ -56,14 +56,13 @@ class EvalCmd:
 
 def _run_world(target: str) -> WorldCfg | None:
     """The training world recorded in a run folder's checkpoint, or None if not a run."""
-    from dyncatch.rl.policy import checkpoint_path
-    from dyncatch.utils.config_io import from_dict
+    from dyncatch.rl.policy import checkpoint_path, header_world
     from dyncatch.utils.tree_io import read_header
 
     path = checkpoint_path(target)
     if not path.is_file():
         return None
-    return from_dict(WorldCfg, read_header(path)["world"], "world")
+    return header_world(path, read_header(path))
 
 
 def run_world_default(cmd: EvalCmd) -> EvalCmd:
