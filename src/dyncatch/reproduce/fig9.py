@@ -17,7 +17,6 @@ Layout: ``eval/fig9/{scene}/{behavior}/{row}[_seed{s}].json`` and
 
 from __future__ import annotations
 
-import json
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,6 +24,7 @@ from pathlib import Path
 from dyncatch.reproduce.layout import cached, cell_name, source_behavior
 from dyncatch.reproduce.plan import Plan
 from dyncatch.reproduce.stages import Job, load_policy
+from dyncatch.utils.files import read_json
 
 CONTACT_TOL_M = 1e-3
 """A contact: the footprint within 1 mm of a wall or obstacle (a push-out leaves it at 0;
@@ -177,7 +177,7 @@ def evaluate(plan: Plan, out: Path, executor, rows=None) -> list[dict]:
             if not cell_path(out, sc, b, r, s).exists()
         ]
     )
-    return [json.loads(cell_path(out, *c).read_text()) for c in cells]
+    return [read_json(cell_path(out, *c)) for c in cells]
 
 
 def _video_job(plan: Plan, out: Path, scene: str, row: str, progress=None) -> None:
@@ -218,7 +218,7 @@ def record_videos(plan: Plan, out: Path, executor, row: str = "sp_rl+blend") -> 
             if not path(sc).exists()
         ]
     )
-    return [json.loads(path(sc).read_text()) for sc in plan.fig9_scenes]
+    return [read_json(path(sc)) for sc in plan.fig9_scenes]
 
 
 def summarize(rows: list[dict]) -> list[dict]:

@@ -7,7 +7,6 @@ stage's independent jobs run on the plan's executor (``executors.py``: here, or 
 
 from __future__ import annotations
 
-import json
 import subprocess
 import time
 from collections.abc import Callable
@@ -17,6 +16,7 @@ import numpy as np
 from dyncatch.reproduce import aggregate, executors, fig9, fig9_report, layout, report, stages
 from dyncatch.reproduce.plan import Plan, estimate_s
 from dyncatch.rl.methods import METHODS, paper_claims, trained_methods
+from dyncatch.utils.files import read_json
 
 
 def _commit() -> str:
@@ -140,7 +140,7 @@ def run(plan: Plan, command: str, log: Callable[[str], None], progress=None) -> 
         fig9_report.plot(fig9_cells, plan.fig9_scenes, plan.fig9_behaviors, figs / "fig9.png")
 
     wall_path = out / "wall.json"
-    previous = json.loads(wall_path.read_text())["total_s"] if wall_path.exists() else 0.0
+    previous = read_json(wall_path)["total_s"] if wall_path.exists() else 0.0
     this_s = time.perf_counter() - t_start
     wall = {"this_invocation_s": this_s, "total_s": previous + this_s}
     layout.write_json(wall_path, wall)

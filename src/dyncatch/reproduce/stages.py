@@ -29,6 +29,7 @@ from dyncatch.reproduce.layout import (
 )
 from dyncatch.reproduce.plan import Plan
 from dyncatch.rl.methods import METHODS, get_method, predictor_kinds, trained_methods
+from dyncatch.utils.files import read_json
 
 
 @dataclass(frozen=True)
@@ -125,7 +126,7 @@ def train_predictors(plan: Plan, out: Path, executor) -> list[dict]:
             if not _predictor_done(predictor_dir(out, behavior, kind))
         ]
     )
-    return [json.loads((predictor_dir(out, b, k) / "metrics.json").read_text()) for b, k in pairs]
+    return [read_json(predictor_dir(out, b, k) / "metrics.json") for b, k in pairs]
 
 
 def _table_ii_job(plan: Plan, out: Path, progress=None) -> None:
@@ -150,7 +151,7 @@ def table_ii(plan: Plan, out: Path, executor) -> list[dict]:
     path = out / "table_ii" / "table_ii.json"
     if not path.exists():
         executor.run([Job("Table II", _table_ii_job, (plan, out))])
-    return json.loads(path.read_text())
+    return read_json(path)
 
 
 def run_cfg(plan: Plan, out: Path, behavior: str, method: str, seed: int):
@@ -265,7 +266,7 @@ def evaluate_grid(plan: Plan, out: Path, table: str, behaviors, speeds, executor
     )
     rows = []
     for b, m, s in cells:
-        for r in json.loads(cell_path(out, table, b, m, s).read_text()):
+        for r in read_json(cell_path(out, table, b, m, s)):
             rows.append({**r, "seed": s, "trained_on": source_behavior(plan, b)})
     return rows
 

@@ -26,7 +26,9 @@ from dyncatch.rl.methods import get_method
 from dyncatch.rl.train import TrainState, make_train
 from dyncatch.sim.api import Environment, JaxCatchEnv
 from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.validate import validate_speeds
 from dyncatch.utils.cli_types import BehaviorName, LoggerName
+from dyncatch.utils.files import check_out_dir
 from dyncatch.utils.progress import NoProgress, Progress
 
 CHECKPOINT = "checkpoint.safetensors"
@@ -130,10 +132,9 @@ def _validate(cfg: TrainRunCfg) -> None:
         )
     if cfg.total_steps < 1 or cfg.checkpoint_every < 1:
         raise ValueError("--total-steps and --checkpoint-every must be >= 1")
-    if cfg.eval_every < 0 or cfg.eval_episodes < 1 or cfg.eval_speed_mps < 0:
-        raise ValueError(
-            "--eval-every must be >= 0, --eval-episodes >= 1 and --eval-speed-mps >= 0"
-        )
+    if cfg.eval_every < 0 or cfg.eval_episodes < 1:
+        raise ValueError("--eval-every must be >= 0 and --eval-episodes >= 1")
+    validate_speeds((cfg.eval_speed_mps,), "--eval-speed-mps")
     validate_loggers(cfg.logger)
     method = get_method(cfg.method)
     if not method.trained:
@@ -158,6 +159,7 @@ class TrainRunner:
         from dyncatch.sim.validate import validate_world
 
         _validate(cfg)
+        check_out_dir(cfg.out)
         self.cfg = cfg
         self.ppo = validate_ppo(cfg.ppo)
         world = validate_world(cfg.world.with_behavior(cfg.behavior))

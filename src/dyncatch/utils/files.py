@@ -35,3 +35,14 @@ def check_out_dir(out: str | os.PathLike, flag: str = "--out") -> Path:
             what = "is a file" if p == out else f"is inside {p}, which is a file"
             raise ValueError(f"{flag} {out} {what}, not a folder; choose another {flag}")
     return out
+
+
+def read_json(path: str | os.PathLike, fix: str = "delete it to recompute it"):
+    """The JSON value in ``path``, or ValueError naming the file and ``fix`` (a damaged or
+    truncated file, or one that is not text)."""
+    import json
+
+    try:
+        return json.loads(Path(path).read_text())
+    except (UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise ValueError(f"{path}: not valid JSON ({err}); {fix}") from None
