@@ -201,6 +201,10 @@ class MetricLog:
             name: LOGGERS[name].make(out, header or {}, resume_iteration)
             for name in validate_loggers(loggers)
         }
+        if "csv" not in self.loggers and (out / "metrics.csv").exists():
+            # An earlier invocation's file: cut to the checkpoint (or removed on a fresh
+            # run) as the csv logger would, so it never shows iterations the run lost.
+            CsvLogger(out, resume_iteration)
 
     def last(self, name: str, default: float = 0.0) -> float:
         """The last logged value of a column (``default`` without one, or without csv)."""
