@@ -111,3 +111,15 @@ def test_csv_resume_drops_rows_past_the_checkpoint_and_keeps_the_clock(tmp_path)
     with (tmp_path / "metrics.csv").open() as f:
         assert [int(r["iteration"]) for r in csv.DictReader(f)] == [1, 2]
     assert MetricLog(tmp_path / "x", 0, ("tensorboard",)).last("time_s", -1.0) == -1.0
+
+
+def test_a_resume_without_csv_cuts_an_earlier_metrics_csv_to_the_checkpoint(tmp_path):
+    from dyncatch.rl.logging import MetricLog
+
+    log = MetricLog(tmp_path, 0, ("csv",))
+    for it in (1, 2, 3):
+        log.write(it, 64 * it, {"loss": 0.5})
+    log.close()
+    MetricLog(tmp_path, 2, ("tensorboard",)).close()
+    rows = (tmp_path / "metrics.csv").read_text().splitlines()
+    assert [r.split(",")[0] for r in rows[1:]] == ["1", "2"]

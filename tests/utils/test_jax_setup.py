@@ -53,3 +53,18 @@ def test_the_simulator_step_compiles_without_library_reductions():
         .as_text()
     )
     assert "__ynn_fusion" not in text
+
+
+def test_the_compile_cache_lives_in_the_user_cache_folder(monkeypatch, tmp_path):
+    from pathlib import Path
+
+    from dyncatch.utils.jax_setup import compilation_cache_dir
+
+    monkeypatch.delenv("JAX_COMPILATION_CACHE_DIR", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert compilation_cache_dir() == tmp_path / "xdg" / "dyncatch" / "jax"
+    monkeypatch.delenv("XDG_CACHE_HOME")
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    assert compilation_cache_dir() == Path(tmp_path / "home" / ".cache" / "dyncatch" / "jax")
+    monkeypatch.setenv("JAX_COMPILATION_CACHE_DIR", str(tmp_path / "mine"))
+    assert compilation_cache_dir() == tmp_path / "mine"

@@ -36,15 +36,17 @@ def run_demo(cmd: DemoCmd) -> list[dict]:
     from dyncatch.evaluation.stats import summarize
     from dyncatch.policies.pursuit import pursuit_policy
     from dyncatch.sim.behaviors import BEHAVIORS
-    from dyncatch.sim.validate import validate_world
+    from dyncatch.sim.validate import validate_speeds, validate_world
+    from dyncatch.utils.files import check_out_dir
     from dyncatch.viz.render import render_frames, write_video
     from dyncatch.viz.trajectory import record_episode
 
     for behavior in BEHAVIORS:
         validate_world(cmd.world.with_behavior(behavior))
-    if cmd.episodes < 1 or any(v < 0 for v in cmd.speeds_mps):
-        raise ValueError("--episodes must be >= 1 and --speeds-mps non-negative")
-    cmd.out.mkdir(parents=True, exist_ok=True)
+    validate_speeds(cmd.speeds_mps, "--speeds-mps")
+    if cmd.episodes < 1:
+        raise ValueError("--episodes must be >= 1")
+    check_out_dir(cmd.out).mkdir(parents=True, exist_ok=True)
     console = Console()
     rows = []
     policy = pursuit_policy(cmd.world)

@@ -56,14 +56,13 @@ class EvalCmd:
 
 def _run_world(target: str) -> WorldCfg | None:
     """The training world recorded in a run folder's checkpoint, or None if not a run."""
-    from dyncatch.rl.policy import checkpoint_path
-    from dyncatch.utils.config_io import from_dict
+    from dyncatch.rl.policy import checkpoint_path, header_world
     from dyncatch.utils.tree_io import read_header
 
     path = checkpoint_path(target)
     if not path.is_file():
         return None
-    return from_dict(WorldCfg, read_header(path)["world"], "world")
+    return header_world(path, read_header(path))
 
 
 def run_world_default(cmd: EvalCmd) -> EvalCmd:
@@ -75,13 +74,12 @@ def run_world_default(cmd: EvalCmd) -> EvalCmd:
 def run_eval(cmd: EvalCmd) -> dict:
     from dyncatch.evaluation.grid import evaluate_speeds
     from dyncatch.evaluation.resolve import resolve_policy
-    from dyncatch.sim.validate import validate_world
+    from dyncatch.sim.validate import validate_speeds, validate_world
     from dyncatch.utils.config_io import config_diff
 
     if cmd.episodes < 1:
         raise ValueError(f"--episodes must be >= 1, got {cmd.episodes}")
-    if any(v < 0 for v in cmd.speeds):
-        raise ValueError(f"--speeds must be non-negative, got {cmd.speeds}")
+    validate_speeds(cmd.speeds, "--speeds")
     policy, method, trained_world = resolve_policy(
         cmd.method, cmd.world, cmd.as_method, cmd.predictor
     )

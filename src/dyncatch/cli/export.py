@@ -24,7 +24,9 @@ class ExportCmd:
 
 def run_export(cmd: ExportCmd) -> dict:
     from dyncatch.export import export_run
+    from dyncatch.utils.files import check_out_dir
 
+    check_out_dir(cmd.out)
     manifest = export_run(cmd.run, cmd.out, cmd.as_method, cmd.predictor)
     graphs = [manifest["policy"]] + ([manifest["predictor"]] if manifest.get("predictor") else [])
     for graph in graphs:

@@ -9,6 +9,9 @@ catch, ``truncated`` at ``cfg.episode.max_steps``), so no ``TimeLimit`` is neede
 
 from __future__ import annotations
 
+import math
+import multiprocessing
+import numbers
 from typing import Any
 
 import gymnasium
@@ -42,6 +45,20 @@ def seed_to_key(seed: int) -> jax.Array:
     return key
 
 
+def spawn_workers_by_default() -> None:
+    """Make "spawn" the process's multiprocessing start method if none was chosen yet.
+
+    Gymnasium's async vector env (``gymnasium.make_vec(..., vectorization_mode="async")``)
+    starts its workers with the default start method, "fork" on Linux before Python 3.14;
+    a child forked after JAX has started deadlocks, and the parent always starts JAX (it
+    builds one environment for the spaces). A start method the program set itself is left
+    as it is (with "fork", pass ``vector_kwargs={"context": "spawn"}``). As with any spawn,
+    a script that builds the vector env needs ``if __name__ == "__main__":``.
+    """
+    if multiprocessing.get_start_method(allow_none=True) is None:
+        multiprocessing.set_start_method("spawn")
+
+
 def make_env(
     behavior: str = "reactive",
     world: WorldCfg | None = None,
@@ -55,6 +72,8 @@ def make_env(
     env = env if env is not None else JaxCatchEnv()
     cfg = (world if world is not None else env.world).with_behavior(behavior)
     if speed_mps is not None:
+        if not isinstance(speed_mps, numbers.Real) or not math.isfinite(speed_mps):
+            raise ValueError(f"speed_mps must be a finite number of m/s, got {speed_mps!r}")
         cfg = cfg.with_speed(float(speed_mps))
     return env.with_world(validate_world(cfg))
 
@@ -164,7 +183,13 @@ class CatchEnv(gymnasium.Env[np.ndarray, np.ndarray]):
     ``self.np_random``, so ``reset(seed=s)`` followed by resets without seed is a
     reproducible sequence. ``reset(options={"behavior": name, "speed_mps": v})`` sets the
     behaviour and the target speed (None: the speed range it was built with) for this and
-    every later episode. Actions outside ``action_space`` are clipped by the simulator.
+    every later episode. Actions outside ``action_space`` are clipped by the simulator; an
+    action with a NaN or an infinity is refused (ValueError), since no clipping can give it
+    a meaning, and the state is left as it was.
+
+    Building one makes "spawn" the multiprocessing start method if the program chose none
+    (``spawn_workers_by_default``), so ``gymnasium.make_vec("dyncatch/Catch-v0",
+    vectorization_mode="async")`` works: forked workers deadlock once JAX has started.
     """
 
     metadata = {"render_modes": list(RENDER_MODES), "render_fps": 50}
@@ -179,6 +204,7 @@ class CatchEnv(gymnasium.Env[np.ndarray, np.ndarray]):
         render_size_px: int = 480,
     ) -> None:
         check_render_mode(render_mode)
+        spawn_workers_by_default()
         self.env = make_env(behavior, world, speed_mps, env)
         self.world = self.built_world = self.env.world
         self.render_mode = render_mode
@@ -235,6 +261,8 @@ class CatchEnv(gymnasium.Env[np.ndarray, np.ndarray]):
             raise ValueError(
                 f"action must have shape {self.action_space.shape}, got {action.shape}"
             )
+        if not np.isfinite(action).all():
+            raise ValueError(f"action must be finite (no NaN or infinity), got {action}")
         layout = info_layout(self.state, self.env)
         self._state, packed = step_packed(self.state, action, self.env)
         if self._frames is not None:

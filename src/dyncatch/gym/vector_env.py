@@ -139,12 +139,16 @@ class CatchVectorEnv(gymnasium.vector.VectorEnv):
     def step(
         self, actions: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        """One control step of every environment under ``actions`` (num_envs, 3)."""
+        """One control step of every environment under ``actions`` (num_envs, 3); a row
+        with a NaN or an infinity is refused (ValueError) and no environment steps."""
         actions = np.asarray(actions, np.float32)
         if actions.shape != self.action_space.shape:
             raise ValueError(
                 f"actions must have shape {self.action_space.shape}, got {actions.shape}"
             )
+        if not np.isfinite(actions).all():
+            bad = np.flatnonzero(~np.isfinite(actions).all(axis=1))
+            raise ValueError(f"actions must be finite (no NaN or infinity): rows {bad.tolist()}")
         self._state, *out = _step_flat(self.state, jnp.asarray(actions), self.env)
         if self._frames is not None:
             self._frames.push(self._state)

@@ -10,18 +10,18 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
-import tempfile
 from pathlib import Path
 
 import jax
 import jax.numpy as jnp
 import numpy as np
-from safetensors.numpy import load_file, save_file
+from safetensors.numpy import load_file
 
 from dyncatch.predictor.config import PredictorCfg
 from dyncatch.predictor.model import Predictor
 from dyncatch.predictor.tracker.config import TrackerCfg
 from dyncatch.predictor.tracker.model import Tracker
+from dyncatch.utils.tree_io import digest_ok, write_atomic_safetensors
 
 FORMAT = "dyncatch.predictor/1"
 TRACKER_FORMAT = "dyncatch.tracker/1"
@@ -78,21 +78,12 @@ def save(
 ):
     """Write ``params`` and ``predictor`` (a frame predictor or a tracker, plus optional
     JSON-able ``info``) to ``path``."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     meta = {
         "format": TRACKER_FORMAT if predictor.stateful else FORMAT,
         "predictor": json.dumps(dataclasses.asdict(predictor)),
         "info": json.dumps(info or {}),
     }
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    os.close(fd)
-    try:
-        save_file(_flatten(jax.device_get(params)), tmp, metadata=meta)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+    write_atomic_safetensors(Path(path), _flatten(jax.device_get(params)), meta)
 
 
 def _read(path: Path, formats: tuple[str, ...] = (FORMAT,)) -> tuple[dict, dict[str, np.ndarray]]:
@@ -106,6 +97,11 @@ def _read(path: Path, formats: tuple[str, ...] = (FORMAT,)) -> tuple[dict, dict[
         flat = load_file(str(path))
         if meta.get("format") not in formats:
             raise CheckpointError(f"{path} is not a {' or '.join(formats)} checkpoint")
+        if not digest_ok(meta, flat):
+            raise CheckpointError(
+                f"{path} is corrupt (its tensors do not match their checksum): "
+                "retrain or copy it again"
+            )
         return meta, flat
     except CheckpointError:
         raise

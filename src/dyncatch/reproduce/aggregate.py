@@ -205,7 +205,7 @@ _JUDGEMENT_KEYS = frozenset(
 
 
 def ordering_checks(cells: list[dict], speeds, claims) -> list[dict]:
-    """Each claim ``(winner, loser)`` (``dyncatch.reproduce.presentation.paper_claims()``) on success
+    """Each claim ``(winner, loser)`` (``reproduce.presentation.paper_claims()``) on success
     (``metric`` success_rate: difference in rate) and, with 2+ seeds, on catch time
     (``metric`` catch_time_s: seconds the first method saves); judged by ``judge_family``
     over these checks alone (a run judges all its checks as one family again)."""

@@ -17,7 +17,6 @@ Layout: ``eval/fig9/{scene}/{behavior}/{row}[_seed{s}].json`` and
 
 from __future__ import annotations
 
-import json
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
@@ -38,6 +37,7 @@ from dyncatch.reproduce.presentation import PRESENTATION
 from dyncatch.rl.methods import METHODS, trained_methods
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.scenes import get_scene
+from dyncatch.utils.files import read_json
 from dyncatch.viz.render import render_frames, write_video
 from dyncatch.viz.trajectory import catch_time_s, record_episode, scene_extras
 
@@ -206,7 +206,7 @@ def cell_jobs(plan: Plan, out: Path, rows=None) -> list[Job]:
 def cell_rows(plan: Plan, out: Path, rows=None) -> list[dict]:
     """Every cell of Fig. 9, read back (one file each)."""
     cells = _cells(plan, rows_of(plan) if rows is None else rows)
-    return [json.loads(cell_path(out, *c).read_text()) for c in cells]
+    return [read_json(cell_path(out, *c)) for c in cells]
 
 
 FILMED_ROW = "sp_rl+blend"
@@ -262,9 +262,7 @@ def video_jobs(plan: Plan, out: Path, row: str = FILMED_ROW) -> list[Job]:
 
 
 def videos(plan: Plan, out: Path) -> list[dict]:
-    return [
-        json.loads(_video_path(out, sc).with_suffix(".json").read_text()) for sc in plan.fig9_scenes
-    ]
+    return [read_json(_video_path(out, sc).with_suffix(".json")) for sc in plan.fig9_scenes]
 
 
 def summarize(rows: list[dict]) -> list[dict]:

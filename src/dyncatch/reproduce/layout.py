@@ -28,6 +28,7 @@ from pathlib import Path
 from dyncatch.reproduce.plan import PROFILES, Plan
 from dyncatch.rl.methods import get_method
 from dyncatch.utils.config_io import config_diff
+from dyncatch.utils.files import honour_umask, read_json
 
 
 def write_json(path: Path, obj) -> None:
@@ -36,12 +37,13 @@ def write_json(path: Path, obj) -> None:
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
     with os.fdopen(fd, "w") as f:
         json.dump(obj, f, indent=2)
+    honour_umask(tmp)
     os.replace(tmp, path)
 
 
 def cached(path: Path, compute: Callable[[], object]):
     if path.exists():
-        return json.loads(path.read_text())
+        return read_json(path)
     value = compute()
     write_json(path, value)
     return value
@@ -52,7 +54,7 @@ def check_plan(out: Path, plan: Plan) -> None:
     path = out / "plan.json"
     want = plan.to_json()
     if path.exists():
-        have = json.loads(path.read_text())
+        have = read_json(path, "delete it, or choose another --out")
         if have != want:
             diff = _real_diff(have, want)
             if not diff:  # only fields added since, at their defaults: same results

@@ -7,7 +7,6 @@ run on the plan's executor (``executors.py``: here, or on Ray).
 
 from __future__ import annotations
 
-import json
 import subprocess
 import time
 from collections.abc import Callable
@@ -16,6 +15,7 @@ from dyncatch.reproduce import executors, layout, summary
 from dyncatch.reproduce.plan import Plan
 from dyncatch.reproduce.report_md import render_report
 from dyncatch.reproduce.stages import estimate_s, stages_of
+from dyncatch.utils.files import read_json
 
 
 def _commit() -> str:
@@ -66,7 +66,7 @@ def run(plan: Plan, command: str, log: Callable[[str], None], progress=None) -> 
 
     results = summary.results(plan, out, outputs, command, _commit())
     wall_path = out / "wall.json"
-    previous = json.loads(wall_path.read_text())["total_s"] if wall_path.exists() else 0.0
+    previous = read_json(wall_path)["total_s"] if wall_path.exists() else 0.0
     this_s = time.perf_counter() - t_start
     results["wall"] = {"this_invocation_s": this_s, "total_s": previous + this_s}
     layout.write_json(wall_path, results["wall"])

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import csv
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +12,7 @@ from dyncatch.reproduce.layout import run_dir
 from dyncatch.reproduce.paper import paper_cell
 from dyncatch.reproduce.plan import Plan
 from dyncatch.reproduce.presentation import PRESENTATION
+from dyncatch.rl.logging import read_metrics
 from dyncatch.rl.methods import trained_methods
 
 
@@ -37,8 +37,7 @@ def color(name: str) -> str:
 def read_curve(run: Path) -> dict[str, np.ndarray]:
     """Per-iteration training columns, and the periodic evaluations (``eval_*``, on the
     iterations where the run evaluated its mean-action policy)."""
-    with (run / "metrics.csv").open() as f:
-        rows = list(csv.DictReader(f))
+    rows = read_metrics(run / "metrics.csv", "delete the run's folder to retrain it")
     keys = ("env_steps", "success_rate", "reward_per_step", "time_s")
     curve = {k: np.array([float(r[k]) for r in rows]) for k in keys}
     evaluated = [r for r in rows if r.get("eval/success_rate")]

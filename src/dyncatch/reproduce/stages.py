@@ -14,7 +14,6 @@ Methods, baselines, predictor kinds and behaviours all come from their registrie
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -48,6 +47,7 @@ from dyncatch.reproduce.plan import Plan
 from dyncatch.reproduce.presentation import filmed_methods
 from dyncatch.rl.methods import predictor_kinds, trained_methods
 from dyncatch.rl.runner import TrainRunCfg
+from dyncatch.utils.files import read_json
 
 
 @dataclass(frozen=True)
@@ -101,10 +101,7 @@ def predictor_jobs(plan: Plan, out: Path) -> list[Job]:
 
 
 def predictor_metrics(plan: Plan, out: Path) -> list[dict]:
-    return [
-        json.loads((predictor_dir(out, b, k) / "metrics.json").read_text())
-        for b, k in _predictor_pairs(plan)
-    ]
+    return [read_json(predictor_dir(out, b, k) / "metrics.json") for b, k in _predictor_pairs(plan)]
 
 
 def table_ii_jobs(plan: Plan, out: Path) -> list[Job]:
@@ -119,7 +116,7 @@ def table_ii_jobs(plan: Plan, out: Path) -> list[Job]:
 
 
 def table_ii_rows(plan: Plan, out: Path) -> list[dict]:
-    return json.loads((out / "table_ii" / "table_ii.json").read_text())
+    return read_json(out / "table_ii" / "table_ii.json")
 
 
 def run_cfg(plan: Plan, out: Path, behavior: str, method: str, seed: int) -> TrainRunCfg:
@@ -180,7 +177,7 @@ def grid_rows(plan: Plan, out: Path, table: str, behaviors) -> list[dict]:
     rows = []
     for b in behaviors:
         for m, s in policies(plan):
-            for r in json.loads(cell_path(out, table, b, m, s).read_text()):
+            for r in read_json(cell_path(out, table, b, m, s)):
                 rows.append({**r, "seed": s, "trained_on": source_behavior(plan, b)})
     return rows
 
@@ -235,7 +232,7 @@ def video_jobs(plan: Plan, out: Path) -> list[Job]:
 
 
 def video_clips(plan: Plan, out: Path) -> list[dict]:
-    return [json.loads(_clip_json(out, m, b).read_text()) for m, b in _clips(plan)]
+    return [read_json(_clip_json(out, m, b)) for m, b in _clips(plan)]
 
 
 STAGES: tuple[Stage, ...] = (

@@ -8,7 +8,7 @@ from dyncatch.reproduce.plan import Plan
 from dyncatch.rl.config import validate_ppo
 from dyncatch.rl.methods import check_selection
 from dyncatch.sim.behaviors import BEHAVIORS
-from dyncatch.sim.validate import validate_world
+from dyncatch.sim.validate import validate_speeds, validate_world
 
 
 def validate_plan(plan: Plan) -> Plan:
@@ -23,8 +23,8 @@ def validate_plan(plan: Plan) -> Plan:
         )
     if plan.episodes < 1:
         raise ValueError(f"--episodes must be >= 1, got {plan.episodes}")
-    if not plan.speeds_mps or any(v < 0 for v in plan.speeds_mps + (plan.fig6_speed_mps,)):
-        raise ValueError(f"--speeds-mps must be non-negative and non-empty, got {plan.speeds_mps}")
+    validate_speeds(plan.speeds_mps, "--speeds-mps")
+    validate_speeds((plan.fig6_speed_mps,), "--fig6-speed-mps")
     bad = [b for b in plan.behaviors if b not in BEHAVIORS]
     if bad or not plan.behaviors:
         raise ValueError(f"--behaviors {bad or '()'}: choose from {', '.join(BEHAVIORS)}")

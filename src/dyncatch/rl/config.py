@@ -64,6 +64,31 @@ class PPOCfg:
 
 def validate_ppo(cfg: PPOCfg) -> PPOCfg:
     """Raise ValueError naming the field when the batch geometry or a coefficient cannot work."""
+    from dyncatch.sim.validate import non_finite_fields
+
+    for name, value in non_finite_fields(cfg, "ppo."):
+        raise ValueError(f"{name} must be a finite number, got {value}")
+    if not cfg.hidden_sizes or min(cfg.hidden_sizes) < 1:
+        raise ValueError(
+            f"ppo.hidden_sizes {' '.join(map(str, cfg.hidden_sizes)) or '(none)'}: "
+            "give one or more layer widths >= 1, e.g. --ppo.hidden-sizes 256 256"
+        )
+    nonneg = {
+        "ent_coef": cfg.ent_coef,
+        "vf_coef": cfg.vf_coef,
+    }
+    positive = {
+        "clip_eps": cfg.clip_eps,
+        "value_clip_eps": cfg.value_clip_eps,
+        "max_grad_norm": cfg.max_grad_norm,
+        "desired_kl": cfg.desired_kl,
+    }
+    for name, value in nonneg.items():
+        if value < 0:
+            raise ValueError(f"ppo.{name} must be >= 0, got {value}")
+    for name, value in positive.items():
+        if value <= 0:
+            raise ValueError(f"ppo.{name} must be positive, got {value}")
     if cfg.num_envs < 1 or cfg.num_steps < 1 or cfg.update_epochs < 1:
         raise ValueError("ppo.num_envs, ppo.num_steps and ppo.update_epochs must be >= 1")
     if cfg.num_minibatches < 1 or cfg.batch_size % cfg.num_minibatches:

@@ -29,6 +29,28 @@ def _measured(metrics: Metrics) -> dict[str, float]:
     return {k: v for k, v in metrics.items() if v != ""}
 
 
+def read_metrics(path: Path, fix: str = "delete it, or restore it from a copy") -> list[dict]:
+    """The rows of a ``metrics.csv``, each cell a string as written; ValueError naming the
+    file and ``fix`` if it is not one (not text, no ``iteration``/``env_steps`` columns, a
+    cell that is neither a number nor empty)."""
+    try:
+        with path.open(newline="") as f:
+            rows = list(csv.DictReader(f))
+    except (UnicodeDecodeError, csv.Error) as err:
+        raise ValueError(f"{path}: not a metrics.csv ({err}); {fix}") from None
+    for i, row in enumerate(rows, start=2):
+        if None in row or None in row.values() or not {"iteration", "env_steps"} <= set(row):
+            raise ValueError(f"{path}: line {i} does not match the columns; {fix}")
+        for name, value in row.items():
+            try:
+                float(value) if value else None
+            except ValueError:
+                raise ValueError(
+                    f"{path}: line {i}, column {name}: {value!r} is not a number; {fix}"
+                ) from None
+    return rows
+
+
 class CsvLogger:
     """``metrics.csv``: one row per iteration (``iteration``, ``env_steps``, metrics).
 
@@ -40,9 +62,8 @@ class CsvLogger:
         self.path = out / "metrics.csv"
         self._fields: list[str] | None = None
         if resume_iteration and self.path.exists():
-            with self.path.open() as f:
-                rows = [r for r in csv.DictReader(f) if int(r["iteration"]) <= resume_iteration]
-            self._rewrite(rows)
+            rows = read_metrics(self.path, "delete it to resume (its rows start again)")
+            self._rewrite([r for r in rows if float(r["iteration"]) <= resume_iteration])
         elif self.path.exists():
             self.path.unlink()
 
@@ -54,8 +75,7 @@ class CsvLogger:
         """The last logged row, its empty cells left out ({} before the first row)."""
         if not self.path.exists():
             return {}
-        with self.path.open() as f:
-            rows = list(csv.DictReader(f))
+        rows = read_metrics(self.path, "delete it to resume (its rows start again)")
         return {k: float(v) for k, v in rows[-1].items() if v} if rows else {}
 
     def _rewrite(self, rows: list[dict]) -> None:
@@ -181,6 +201,10 @@ class MetricLog:
             name: LOGGERS[name].make(out, header or {}, resume_iteration)
             for name in validate_loggers(loggers)
         }
+        if "csv" not in self.loggers and (out / "metrics.csv").exists():
+            # An earlier invocation's file: cut to the checkpoint (or removed on a fresh
+            # run) as the csv logger would, so it never shows iterations the run lost.
+            CsvLogger(out, resume_iteration)
 
     def last(self, name: str, default: float = 0.0) -> float:
         """The last logged value of a column (``default`` without one, or without csv)."""

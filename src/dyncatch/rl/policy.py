@@ -25,7 +25,7 @@ from dyncatch.rl.train import make_train, to_command
 from dyncatch.sim.api import Environment, JaxCatchEnv
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.state import EnvState, Obs
-from dyncatch.utils.config_io import from_dict
+from dyncatch.utils.config_io import ConfigDictError, from_dict
 from dyncatch.utils.tree_io import TreeFileError, load_fields, read_header
 
 
@@ -73,6 +73,40 @@ def checkpoint_path(run: str | Path) -> Path:
     return p / CHECKPOINT if p.is_dir() else p
 
 
+def header_field(path: Path, header: dict, name: str, kind: type = str) -> Any:
+    """``header[name]``, or TreeFileError naming the file and the field."""
+    if name not in header:
+        raise TreeFileError(f"{path}: its header has no {name!r}; retrain the run or restore it")
+    if not isinstance(header[name], kind):
+        raise TreeFileError(
+            f"{path}: header field {name!r} is {header[name]!r}, expected a {kind.__name__}; "
+            "retrain the run or restore it"
+        )
+    return header[name]
+
+
+def header_world(path: Path, header: dict) -> WorldCfg:
+    """The training world of a checkpoint's header: typed and checked, or TreeFileError
+    naming the file and the field."""
+    from dyncatch.sim.validate import ConfigError, validate_world
+
+    try:
+        world = from_dict(WorldCfg, header_field(path, header, "world", dict), "world")
+        return validate_world(world)
+    except (ConfigDictError, ConfigError) as err:
+        raise TreeFileError(f"{path}: header {err}; retrain the run or restore it") from None
+
+
+def header_ppo(path: Path, header: dict) -> PPOCfg:
+    """The PPO config of a checkpoint's header, typed and checked (TreeFileError else)."""
+    from dyncatch.rl.config import validate_ppo
+
+    try:
+        return validate_ppo(from_dict(PPOCfg, header_field(path, header, "ppo", dict), "ppo"))
+    except ValueError as err:
+        raise TreeFileError(f"{path}: header {err}; retrain the run or restore it") from None
+
+
 def load_run(
     run: str | Path, as_method: str | None = None, predictor: str | Path | None = None
 ) -> Run:
@@ -93,7 +127,7 @@ def load_run(
                 f"{TRAIN_FORMAT}); retrain it with dyncatch train"
             )
         raise TreeFileError(f"{path}: not a dyncatch train checkpoint ({fmt})")
-    trained = header["method"]
+    trained = header_field(path, header, "method")
     method = as_method or trained
     m = get_method(method)
     if method != trained and m.trained_as != trained:
@@ -102,8 +136,8 @@ def load_run(
             f"a {trained!r} run cannot be evaluated as {method!r}"
             + (f"; it can be evaluated as {', '.join(reusers)}" if reusers else "")
         )
-    ppo = from_dict(PPOCfg, header["ppo"], "ppo")
-    world = from_dict(WorldCfg, header["world"], "world")
+    ppo = header_ppo(path, header)
+    world = header_world(path, header)
     pred = pred_params = None
     if m.predictor_kind is not None:
         pred_path = predictor or header.get("predictor")
@@ -124,4 +158,5 @@ def load_run(
     # shape since training (a scene added a field) without changing the policy.
     got, _ = load_fields(path, template, ("params", "norm"))
     policy = LearnedPolicy(net, got["params"], got["norm"], obs_fn, env)
-    return Run(policy, method, trained, header["behavior"], world, header)
+    behavior = header_field(path, header, "behavior")
+    return Run(policy, method, trained, behavior, world, header)

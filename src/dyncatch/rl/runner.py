@@ -20,12 +20,15 @@ import jax
 from jax.sharding import Mesh
 
 from dyncatch.rl.config import PPOCfg, validate_ppo
+from dyncatch.rl.guard import check_finite
 from dyncatch.rl.logging import MetricLog, validate_loggers
 from dyncatch.rl.methods import get_method
 from dyncatch.rl.train import TrainState, make_train
 from dyncatch.sim.api import Environment, JaxCatchEnv
 from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.validate import validate_speeds
 from dyncatch.utils.cli_types import BehaviorName, LoggerName
+from dyncatch.utils.files import check_out_dir
 from dyncatch.utils.progress import NoProgress, Progress
 
 CHECKPOINT = "checkpoint.safetensors"
@@ -129,10 +132,9 @@ def _validate(cfg: TrainRunCfg) -> None:
         )
     if cfg.total_steps < 1 or cfg.checkpoint_every < 1:
         raise ValueError("--total-steps and --checkpoint-every must be >= 1")
-    if cfg.eval_every < 0 or cfg.eval_episodes < 1 or cfg.eval_speed_mps < 0:
-        raise ValueError(
-            "--eval-every must be >= 0, --eval-episodes >= 1 and --eval-speed-mps >= 0"
-        )
+    if cfg.eval_every < 0 or cfg.eval_episodes < 1:
+        raise ValueError("--eval-every must be >= 0 and --eval-episodes >= 1")
+    validate_speeds((cfg.eval_speed_mps,), "--eval-speed-mps")
     validate_loggers(cfg.logger)
     method = get_method(cfg.method)
     if not method.trained:
@@ -157,6 +159,7 @@ class TrainRunner:
         from dyncatch.sim.validate import validate_world
 
         _validate(cfg)
+        check_out_dir(cfg.out)
         self.cfg = cfg
         self.ppo = validate_ppo(cfg.ppo)
         world = validate_world(cfg.world.with_behavior(cfg.behavior))
@@ -249,9 +252,11 @@ class TrainRunner:
         # continued across resumes.
         clock0 = time.perf_counter() - log.last("time_s")
         t0 = None  # the rate's clock starts after the first (compiling) iteration
+        saved = start if cfg.resume else None  # the iteration of the checkpoint on disk
         for it in range(start, total_iters):
             ts, m = self._iterate(ts)
             metrics = {k: float(v) for k, v in jax.device_get(m).items()}
+            check_finite(ts.params, ts.norm, metrics, it + 1, self.checkpoint, saved)
             metrics["time_s"] = time.perf_counter() - clock0
             if eval_due(cfg, it, start, total_iters):
                 t_eval = time.perf_counter()
@@ -267,4 +272,5 @@ class TrainRunner:
             update(it + 1, f"{rate:,.0f} samples/s  success {metrics['success_rate']:.2f}")
             if (it + 1) % cfg.checkpoint_every == 0 or it + 1 == total_iters:
                 self.save(ts)
+                saved = it + 1
         return metrics

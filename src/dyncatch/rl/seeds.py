@@ -25,6 +25,7 @@ import jax
 import jax.numpy as jnp
 from jax.sharding import Mesh
 
+from dyncatch.rl.guard import check_finite
 from dyncatch.rl.logging import MetricLog
 from dyncatch.rl.runner import TrainRunCfg, TrainRunner, eval_due
 from dyncatch.rl.sharding import state_shardings
@@ -167,6 +168,7 @@ class SeedGroupRunner:
         # across resumes: the group's clock, so every seed counts the whole group's time.
         clock0 = [time.perf_counter() - log.last("time_s") for log in logs]
         t0 = None
+        saved = start if start else None  # the iteration of the checkpoints on disk
         for it in range(start, total_iters):
             ts, m = iterate(ts)
             m = jax.device_get(m)
@@ -175,6 +177,9 @@ class SeedGroupRunner:
                 {**{k: float(v[i]) for k, v in m.items()}, "time_s": now - clock0[i]}
                 for i in range(len(runners))
             ]
+            for i, r in enumerate(runners):
+                one = seed_slice(ts, i)
+                check_finite(one.params, one.norm, metrics[i], it + 1, r.checkpoint, saved)
             if eval_due(cfg, it, start, total_iters):
                 t_eval = time.perf_counter()
                 for i, r in enumerate(runners):
@@ -195,4 +200,5 @@ class SeedGroupRunner:
             if (it + 1) % cfg.checkpoint_every == 0 or it + 1 == total_iters:
                 for i, r in enumerate(runners):
                     r.save(seed_slice(ts, i))
+                saved = it + 1
         return metrics

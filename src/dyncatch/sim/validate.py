@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import dataclasses
+import math
+from collections.abc import Iterable
+
 from dyncatch.sim.behaviors import BEHAVIORS, get_behavior
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.scenes import SCENES
@@ -11,8 +15,44 @@ class ConfigError(ValueError):
     """A config value that cannot work; the message names the field and what to do."""
 
 
+MAX_SPEED_MPS = 100.0
+"""The fastest target speed accepted (m/s): far beyond any animal the model stands for,
+and below the speeds at which one control step (0.02 s) crosses the arena."""
+
+
+def non_finite_fields(cfg, prefix: str = "") -> Iterable[tuple[str, float]]:
+    """(dotted name, value) of every float field of a nested config that is NaN, or
+    infinite where its default is finite (a field whose default is inf means "no limit")."""
+    default = type(cfg)()
+    for f in dataclasses.fields(cfg):
+        value, base = getattr(cfg, f.name), getattr(default, f.name)
+        name = f"{prefix}{f.name}"
+        if dataclasses.is_dataclass(value):
+            yield from non_finite_fields(value, name + ".")
+        elif isinstance(value, float) and not isinstance(base, bool):
+            if math.isnan(value) or (math.isinf(value) and not math.isinf(base)):
+                yield name, value
+
+
+def validate_speeds(speeds: Iterable[float], flag: str) -> tuple[float, ...]:
+    """Target speeds of a command-line list, checked: finite, in [0, MAX_SPEED_MPS]."""
+    speeds = tuple(speeds)
+    for v in speeds:
+        if not 0 <= v <= MAX_SPEED_MPS:  # False for NaN too
+            raise ConfigError(
+                f"{flag} {v}: give target speeds in m/s between 0 and {MAX_SPEED_MPS:g}"
+            )
+    if not speeds:
+        raise ConfigError(f"{flag}: give at least one target speed in m/s")
+    return speeds
+
+
 def validate_world(cfg: WorldCfg) -> WorldCfg:
     """Return ``cfg`` unchanged, or raise ConfigError naming the first bad field."""
+    for name, value in non_finite_fields(cfg):
+        raise ConfigError(
+            f"bad world config: {name}: must be a finite number, got {value}; give a finite value"
+        )
     t, s, e, b, a = cfg.target, cfg.sensor, cfg.episode, cfg.base, cfg.arm
     period_s = 1.0 / s.rate_hz if s.rate_hz > 0 else float("inf")
     checks = [
@@ -38,6 +78,11 @@ def validate_world(cfg: WorldCfg) -> WorldCfg:
             "target.speed_min_mps/speed_max_mps",
             f"need 0 <= min <= max, got {t.speed_min_mps} and {t.speed_max_mps}",
         ),
+        (
+            t.speed_max_mps <= MAX_SPEED_MPS,
+            "target.speed_max_mps",
+            f"{t.speed_max_mps} m/s is too fast; use at most {MAX_SPEED_MPS:g}",
+        ),
         (t.max_turn_rate_rps > 0, "target.max_turn_rate_rps", "must be positive"),
         # The active behaviour checks its own parameters (the others are not used).
         *(get_behavior(t.behavior).validate(cfg) if t.behavior in BEHAVIORS else []),
@@ -59,7 +104,11 @@ def validate_world(cfg: WorldCfg) -> WorldCfg:
             "episode.control_hz/physics_substeps",
             "must be positive",
         ),
-        (e.duration_s > 0, "episode.duration_s", "must be positive"),
+        (
+            e.duration_s * e.control_hz >= 1,
+            "episode.duration_s",
+            f"{e.duration_s} s is shorter than one control step; use at least {e.dt_s:g}",
+        ),
         (
             0 < e.init_distance_min_m <= e.init_distance_max_m,
             "episode.init_distance_*",

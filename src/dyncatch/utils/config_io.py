@@ -3,6 +3,8 @@
 ``from_dict(cls, d)`` rebuilds nested dataclasses (flax-struct configs included) and turns
 JSON lists back into tuples where the field's default is a tuple; unknown keys are refused
 with the field's dotted name, so a header from another version of the code fails loudly.
+Each value must have its default's type (a bool for a bool, a number for a float, a string
+for a string, a list of such for a tuple); a field whose default is None takes anything.
 """
 
 from __future__ import annotations
@@ -32,11 +34,40 @@ def from_dict(cls: type, d: dict, where: str = "") -> Any:
         path = f"{where}.{name}" if where else name
         if dataclasses.is_dataclass(current):
             kwargs[name] = from_dict(type(current), value, path)
-        elif isinstance(current, tuple) and isinstance(value, list):
-            kwargs[name] = tuple(value)
         else:
-            kwargs[name] = value
+            kwargs[name] = _typed(value, current, path)
     return dataclasses.replace(default, **kwargs)
+
+
+def _kind(default: Any) -> str:
+    for t, name in ((bool, "a boolean"), (int, "an integer"), (float, "a number")):
+        if isinstance(default, t):
+            return name
+    return "a string" if isinstance(default, str) else type(default).__name__
+
+
+def _typed(value: Any, default: Any, path: str) -> Any:
+    """``value`` as the type of ``default``, or ConfigDictError naming ``path``."""
+    ok = True
+    if default is None:
+        return value
+    if isinstance(default, bool):
+        ok = isinstance(value, bool)
+    elif isinstance(default, int):
+        ok = isinstance(value, int) and not isinstance(value, bool)
+    elif isinstance(default, float):
+        ok = isinstance(value, int | float) and not isinstance(value, bool)
+        value = float(value) if ok else value
+    elif isinstance(default, str):
+        ok = isinstance(value, str)
+    elif isinstance(default, tuple):
+        ok = isinstance(value, list | tuple)
+        if ok:
+            like = default[0] if default else None
+            return tuple(_typed(v, like, f"{path}[{i}]") for i, v in enumerate(value))
+    if not ok:
+        raise ConfigDictError(f"{path} is {value!r}, expected {_kind(default)}")
+    return value
 
 
 def to_json(cfg: Any) -> Any:

@@ -16,8 +16,15 @@ library fusions"). The flag only concerns the CPU backend."""
 
 
 def compilation_cache_dir() -> Path:
-    """The persistent compilation cache: ``$JAX_COMPILATION_CACHE_DIR`` or ``.cache/jax``."""
-    return Path(os.environ.get("JAX_COMPILATION_CACHE_DIR") or Path(".cache") / "jax")
+    """The persistent compilation cache: ``$JAX_COMPILATION_CACHE_DIR``, else the user's
+    cache folder (``$XDG_CACHE_HOME/dyncatch/jax``, ``~/.cache/dyncatch/jax``). Never the
+    current folder: JAX loads compiled native code from the cache, so a cache inside a
+    folder someone else wrote would run their code."""
+    explicit = os.environ.get("JAX_COMPILATION_CACHE_DIR")
+    if explicit:
+        return Path(explicit)
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "dyncatch" / "jax"
 
 
 def with_cpu_flags(xla_flags: str) -> str:
@@ -31,7 +38,7 @@ def with_cpu_flags(xla_flags: str) -> str:
 
 
 def setup_jax(cache_dir: str | os.PathLike | None = None) -> None:
-    """Turn on JAX's persistent compilation cache (under ``.cache/jax`` by default) and add
+    """Turn on JAX's persistent compilation cache (``compilation_cache_dir``) and add
     ``CPU_XLA_FLAGS`` to ``XLA_FLAGS``.
 
     XLA reads its flags when the first backend starts, so call this before anything runs

@@ -3,11 +3,14 @@
 Leaves are stored under their tree paths; a JSON ``header`` rides in the file's metadata.
 Loading needs a *template* of the same structure (e.g. a freshly initialised state): every
 leaf's path, shape and dtype must match, else ``TreeFileError`` says which one differs.
-Typed PRNG keys are stored as their raw key data.
+Typed PRNG keys are stored as their raw key data. A SHA-256 of the tensors (names, dtypes,
+shapes and bytes) rides in the metadata too and is checked on load, so a damaged data byte
+is refused with the file's name (files written before the checksum load unchecked).
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import tempfile
@@ -20,10 +23,46 @@ from safetensors import SafetensorError
 from safetensors.numpy import load_file, save_file
 
 _HEADER_KEY = "dyncatch_header"
+DIGEST_KEY = "dyncatch_sha256"
+"""The metadata key of the tensors' checksum (``tensor_digest``)."""
 
 
 class TreeFileError(ValueError):
     """A file that does not hold the expected tree; the message says what differs."""
+
+
+def tensor_digest(arrays: dict[str, np.ndarray]) -> str:
+    """SHA-256 (hex) of named arrays: each name, dtype, shape and bytes, in name order."""
+    h = hashlib.sha256()
+    for name in sorted(arrays):
+        a = np.ascontiguousarray(arrays[name])
+        h.update(f"{name}\0{a.dtype.str}\0{a.shape}\0".encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
+def digest_ok(metadata: dict, arrays: dict[str, np.ndarray]) -> bool:
+    """Whether ``arrays`` match the checksum in a file's ``metadata`` (True without one)."""
+    want = metadata.get(DIGEST_KEY)
+    return want is None or want == tensor_digest(arrays)
+
+
+def write_atomic_safetensors(path: Path, arrays: dict[str, np.ndarray], metadata: dict) -> Path:
+    """``arrays`` to ``path`` through a temporary file and ``os.replace``, with ``metadata``
+    and the tensors' checksum; the file gets the mode a plain ``open`` would (umask)."""
+    from dyncatch.utils.files import honour_umask
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    os.close(fd)
+    try:
+        save_file(arrays, tmp, metadata={**metadata, DIGEST_KEY: tensor_digest(arrays)})
+        honour_umask(tmp)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+    return path
 
 
 def _is_key(x) -> bool:
@@ -47,21 +86,11 @@ def _named_leaves(tree) -> list[tuple[str, object]]:
 
 
 def save_tree(path: str | os.PathLike, tree, header: dict) -> Path:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     arrays = {
         name: np.asarray(jax.random.key_data(leaf) if _is_key(leaf) else leaf)
         for name, leaf in _named_leaves(tree)
     }
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    os.close(fd)
-    try:
-        save_file(arrays, tmp, metadata={_HEADER_KEY: json.dumps(header)})
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-    return path
+    return write_atomic_safetensors(Path(path), arrays, {_HEADER_KEY: json.dumps(header)})
 
 
 def read_header(path: str | os.PathLike) -> dict:
@@ -79,11 +108,21 @@ def read_header(path: str | os.PathLike) -> dict:
 def _read_arrays(path: Path) -> tuple[dict, dict]:
     if not path.exists():
         raise FileNotFoundError(f"{path}: no such checkpoint")
+    from safetensors import safe_open
+
     header = read_header(path)
     try:
-        return load_file(str(path)), header
+        with safe_open(str(path), framework="numpy") as f:
+            metadata = f.metadata() or {}
+        arrays = load_file(str(path))
     except (SafetensorError, OSError) as err:
         raise TreeFileError(f"{path}: corrupt checkpoint ({err})") from None
+    if not digest_ok(metadata, arrays):
+        raise TreeFileError(
+            f"{path}: corrupt checkpoint (its tensors do not match their checksum); "
+            "copy it again or retrain"
+        )
+    return arrays, header
 
 
 def _fill(path: Path, arrays: dict, template, prefix: str = ""):
