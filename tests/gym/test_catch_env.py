@@ -32,8 +32,8 @@ NUM_STEPS = 20
 EXPECTED_WARNINGS = ("infinity", "symmetric and normalized")
 _OFFSETS = dict(
     zip(
-        [name for name, _ in Obs.layout()],
-        np.cumsum([0] + [size for _, size in Obs.layout()])[:-1],
+        [name for name, _ in Obs.layout(WorldCfg().scene.scan_rays)],
+        np.cumsum([0] + [size for _, size in Obs.layout(WorldCfg().scene.scan_rays)])[:-1],
         strict=True,
     )
 )

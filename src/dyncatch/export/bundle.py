@@ -86,7 +86,7 @@ def export(run: Run, out: str | Path, source: dict | None = None) -> dict:
     world, obs_fn = run.world, policy.obs_fn
     spec = policy.env.action_spec
     low, high = np.asarray(spec.low, np.float32), np.asarray(spec.high, np.float32)
-    inputs = policy_layout(obs_fn)
+    inputs = policy_layout(obs_fn, world)
     doc = f"dyncatch {run.method} policy ({run.behavior}): obs (batch, D) -> command (batch, 3)"
     model = policy_model(
         policy.params["params"]["actor"], policy.norm.mean, policy.norm.var, low, high, doc
