@@ -310,7 +310,7 @@ def test_bad_input_is_a_one_line_error(runs, tmp_path, capsys):
             "cannot be evaluated as",
         ),
     ]
-    tracker = Tracker(TrackerCfg(hidden=(8,)))
+    tracker = Tracker.for_world(TrackerCfg(hidden=(8,)), WorldCfg())
     save_predictor(tmp_path / "tracker.safetensors", tracker, tracker.init(jax.random.key(0)))
     cases.append(
         (

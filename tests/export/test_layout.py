@@ -17,12 +17,10 @@ from dyncatch.sim.state import ACTION_DIM
     ("kind", "frame"), [(k, f) for k in FEATURES for f in FEATURES[k]], ids=lambda v: v
 )
 def test_every_predictor_layout_has_units_and_meanings(kind, frame):
-    layout = predictor_layout(Predictor(PredictorCfg(kind=kind, frame=frame, hidden=(8,))))
+    predictor = Predictor.for_world(PredictorCfg(kind=kind, frame=frame, hidden=(8,)), WorldCfg())
+    layout = predictor_layout(predictor)
     assert all(e["unit"] and e["doc"] for e in layout)
-    assert (
-        layout[-1]["offset"] + layout[-1]["size"]
-        == Predictor(PredictorCfg(kind=kind, frame=frame)).input_dim
-    )
+    assert layout[-1]["offset"] + layout[-1]["size"] == predictor.input_dim
 
 
 def test_a_name_without_a_unit_or_a_meaning_is_refused():

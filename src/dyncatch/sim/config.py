@@ -138,6 +138,11 @@ class SensorCfg:
     noise_m: float = 0.0
     """Std of the position noise added to each observation."""
 
+    @property
+    def period_s(self) -> float:
+        """Time between camera frames, 1 / f_vis."""
+        return 1.0 / self.rate_hz
+
 
 VisibilityReading = Literal["per_second", "per_step"]
 SuccessReading = Literal["terminal", "every_step"]

@@ -14,7 +14,7 @@ class ConfigError(ValueError):
 def validate_world(cfg: WorldCfg) -> WorldCfg:
     """Return ``cfg`` unchanged, or raise ConfigError naming the first bad field."""
     t, s, e, b, a = cfg.target, cfg.sensor, cfg.episode, cfg.base, cfg.arm
-    period_s = 1.0 / s.rate_hz if s.rate_hz > 0 else float("inf")
+    period_s = s.period_s if s.rate_hz > 0 else float("inf")
     checks = [
         (
             cfg.scene.name in SCENES,
