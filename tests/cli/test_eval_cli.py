@@ -2,7 +2,7 @@
 
 import json
 
-from dyncatch.cli.main import main
+from dyncatch.cli.main import main, parse
 
 
 def test_eval_json_rows(capsys):
@@ -55,3 +55,7 @@ def test_a_baseline_deployed_with_the_blend_in_a_room(capsys, monkeypatch):
     assert isinstance(seen[0][0], Blended) and seen[0][1] == "room_8"
     assert main([*argv, "--json"]) == 0
     assert not isinstance(seen[1][0], Blended)
+
+
+def test_the_default_speeds_are_table_i_s():
+    assert parse(["eval", "pursuit"])[1].speeds == (0.8, 1.0, 1.2, 1.4, 1.6, 1.8)

@@ -21,9 +21,8 @@ NUM_ENVS = 4
 WORLD = WorldCfg(episode=EpisodeCfg(duration_s=3.0)).with_speed(0.0)
 
 
-_SIGHTING = sum(
-    size for name, size in Obs.layout()[: [n for n, _ in Obs.layout()].index("target_obs_body_m")]
-)
+_LAYOUT = Obs.layout(WORLD.scene.scan_rays)
+_SIGHTING = sum(size for _, size in _LAYOUT[: [n for n, _ in _LAYOUT].index("target_obs_body_m")])
 """Where target_obs_body_m starts in ``Obs.flat``."""
 
 

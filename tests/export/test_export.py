@@ -278,11 +278,23 @@ def test_the_documented_example_runs_and_gives_the_policy_command(runs, tmp_path
     check = "\nprint(json.dumps(command.tolist()))\n"
     command = json.loads(_isolated(example + check, tmp_path).splitlines()[-1])
     policy = _load(runs, "gt_rl").policy
-    x = jnp.zeros((1, policy.norm.mean.shape[0]))
-    mean, _, _ = policy.net.apply(policy.params, policy.norm(x))
-    spec = policy.env.action_spec
-    want = spec.low + (jnp.clip(mean[0], -1, 1) + 1) * 0.5 * (spec.high - spec.low)
+    zeros = jnp.zeros(policy.norm.mean.shape[0])  # the example's all-zero readings
+    # The JAX policy's own step (network, normaliser, command scaling) on that input.
+    _, want = policy.replace(obs_fn=_Given(zeros)).step((), None, None, None)
     np.testing.assert_allclose(command, want, atol=1e-5)
+    spec = policy.env.action_spec
+    assert np.all(np.asarray(spec.low) <= command) and np.all(command <= np.asarray(spec.high))
+
+
+class _Given:
+    """An input function that hands the policy ``x`` whatever the state."""
+
+    def __init__(self, x):
+        self.x = x
+
+    def step(self, carry, state, obs):
+        del state, obs
+        return carry, self.x
 
 
 def test_bad_input_is_a_one_line_error(runs, tmp_path, capsys):
@@ -313,7 +325,7 @@ def test_bad_input_is_a_one_line_error(runs, tmp_path, capsys):
             "cannot be evaluated as",
         ),
     ]
-    tracker = Tracker(TrackerCfg(hidden=(8,)))
+    tracker = Tracker.for_world(TrackerCfg(hidden=(8,)), WorldCfg())
     save_predictor(tmp_path / "tracker.safetensors", tracker, tracker.init(jax.random.key(0)))
     cases.append(
         (

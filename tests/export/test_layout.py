@@ -1,5 +1,6 @@
 """Layouts of the exported graphs: every input slot has a unit and a meaning."""
 
+import jax
 import pytest
 
 from dyncatch.export.layout import command_layout, entries, policy_layout, predictor_layout
@@ -7,19 +8,19 @@ from dyncatch.predictor.config import PredictorCfg
 from dyncatch.predictor.features import FEATURES
 from dyncatch.predictor.model import Predictor
 from dyncatch.rl.methods import METHODS
-from dyncatch.sim.state import ACTION_DIM, OBS_DIM
+from dyncatch.sim.api import JaxCatchEnv
+from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.state import ACTION_DIM
 
 
 @pytest.mark.parametrize(
     ("kind", "frame"), [(k, f) for k in FEATURES for f in FEATURES[k]], ids=lambda v: v
 )
 def test_every_predictor_layout_has_units_and_meanings(kind, frame):
-    layout = predictor_layout(Predictor(PredictorCfg(kind=kind, frame=frame, hidden=(8,))))
+    predictor = Predictor.for_world(PredictorCfg(kind=kind, frame=frame, hidden=(8,)), WorldCfg())
+    layout = predictor_layout(predictor)
     assert all(e["unit"] and e["doc"] for e in layout)
-    assert (
-        layout[-1]["offset"] + layout[-1]["size"]
-        == Predictor(PredictorCfg(kind=kind, frame=frame)).input_dim
-    )
+    assert layout[-1]["offset"] + layout[-1]["size"] == predictor.input_dim
 
 
 def test_a_name_without_a_unit_or_a_meaning_is_refused():
@@ -29,15 +30,37 @@ def test_a_name_without_a_unit_or_a_meaning_is_refused():
         entries([("speed_mps", 1)], {})
 
 
-@pytest.mark.parametrize(
-    "method", [name for name, m in METHODS.items() if m.predictor_kind is None]
-)
-def test_the_policy_layout_covers_the_input_vector(method):
-    layout = policy_layout(METHODS[method].obs_fn())
-    end = layout[-1]["offset"] + layout[-1]["size"]
-    assert end == OBS_DIM + (3 if METHODS[method].velocity_input else 0)
-    assert [e["offset"] for e in layout[1:]] == [e["offset"] + e["size"] for e in layout[:-1]]
+# (name, offset, size) of every slot, worked out by hand from the fields' shapes.
+OBS_SLOTS = [
+    ("robot_vel_body_mps", 0, 2),
+    ("robot_yaw_rate_rps", 2, 1),
+    ("target_obs_body_m", 3, 2),
+    ("time_since_seen_s", 5, 1),
+    ("visible", 6, 1),
+    ("scan_m", 7, 8),
+]
+VELOCITY_SLOTS = [("target_vel_body_mps", 15, 2), ("target_vel_defined", 17, 1)]
+
+
+@pytest.mark.parametrize(("method", "extra"), [("rl", []), ("gt_rl", VELOCITY_SLOTS)])
+def test_the_policy_layout_covers_the_input_vector(method, extra):
+    layout = policy_layout(METHODS[method].obs_fn(), WorldCfg())
+    assert [(e["name"], e["offset"], e["size"]) for e in layout] == OBS_SLOTS + extra
     assert {e["unit"] for e in layout} >= {"m", "m/s", "rad/s", "s", "1 (0 or 1)"}
+
+
+@pytest.mark.parametrize("method", ["rl", "gt_rl"])
+def test_the_policy_layout_follows_the_worlds_scan(method):
+    # Issue 29: a 32-ray world's policy input is 7 + 32 (+ 3) wide, not the 8-ray default's.
+    world = WorldCfg().for_scene("woods_plane")
+    env = JaxCatchEnv(world)
+    state = env.reset(jax.random.key(0))
+    obs_fn = METHODS[method].obs_fn()
+    x = obs_fn(state, env.observe(state))
+    layout = policy_layout(obs_fn, world)
+    assert x.shape == (7 + 32 + (3 if METHODS[method].velocity_input else 0),)
+    assert sum(e["size"] for e in layout) == x.shape[0]
+    assert next(e for e in layout if e["name"] == "scan_m")["size"] == 32
 
 
 def test_the_command_has_one_named_slot_per_action():

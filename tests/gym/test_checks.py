@@ -16,8 +16,8 @@ from gymnasium.wrappers.vector import DictInfoToList
 import dyncatch  # noqa: F401  (registers the gymnasium ids)
 from dyncatch.gym import CATCH_ID, CATCH_VECTOR_ID
 from dyncatch.gym.vector_env import CatchVectorEnv
+from dyncatch.sim.api import OBS_DIM
 from dyncatch.sim.config import EpisodeCfg, WorldCfg
-from dyncatch.sim.state import OBS_DIM
 
 SIZE_PX = 128
 NUM_ENVS = 4

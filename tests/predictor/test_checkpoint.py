@@ -11,8 +11,11 @@ from dyncatch.predictor.checkpoint import CheckpointError
 from dyncatch.predictor.config import PredictorCfg
 from dyncatch.predictor.features import History
 from dyncatch.predictor.model import Predictor, predict
+from dyncatch.predictor.tracker.config import TrackerCfg
+from dyncatch.predictor.tracker.model import Tracker
+from dyncatch.sim.config import ArenaCfg, EpisodeCfg, SensorCfg, WorldCfg
 
-PREDICTOR = Predictor(PredictorCfg(kind="self_aware", hidden=(32, 16)))
+PREDICTOR = Predictor.for_world(PredictorCfg(kind="self_aware", hidden=(32, 16)), WorldCfg())
 
 
 def random_histories(n: int) -> History:
@@ -46,7 +49,7 @@ def test_round_trip_gives_identical_predictions(saved):
 
 def test_mismatched_config_names_the_field(saved):
     path, _ = saved
-    other = Predictor(PredictorCfg(kind="self_aware", hidden=(64, 16)))
+    other = Predictor.for_world(PredictorCfg(kind="self_aware", hidden=(64, 16)), WorldCfg())
     with pytest.raises(CheckpointError, match=r"hidden.*retrain") as err:
         checkpoint.load(path, expected=other)
     assert "\n" not in str(err.value)
@@ -67,3 +70,36 @@ def test_corrupt_file_is_a_one_line_error(saved):
 def test_missing_file_says_to_train(tmp_path):
     with pytest.raises(FileNotFoundError, match="train one first"):
         checkpoint.load(tmp_path / "none.safetensors")
+
+
+def test_the_world_quantities_come_from_the_world_and_are_recorded(saved):
+    path, _ = saved
+    # The default world: a 16 m arena, a 2 Hz camera (0.5 s between frames).
+    predictor, _ = checkpoint.load_any(path, WorldCfg())
+    assert (predictor.arena_size_m, predictor.frame_dt_s) == (16.0, 0.5)
+    world = WorldCfg(arena=ArenaCfg(size_m=20.0), sensor=SensorCfg(rate_hz=4.0))
+    assert Predictor.for_world(PREDICTOR.cfg, world).frame_dt_s == 0.25
+
+
+@pytest.mark.parametrize(
+    ("world", "field"),
+    [
+        (WorldCfg(arena=ArenaCfg(size_m=20.0)), "arena_size_m"),
+        (WorldCfg(sensor=SensorCfg(rate_hz=4.0)), "frame_dt_s"),
+    ],
+)
+def test_a_predictor_in_another_world_is_refused(saved, world, field):
+    path, _ = saved
+    with pytest.raises(CheckpointError, match=rf"another world: {field}.*retrain") as err:
+        checkpoint.load_any(path, world)
+    assert "\n" not in str(err.value)
+
+
+def test_a_tracker_in_another_control_rate_is_refused(tmp_path):
+    tracker = Tracker.for_world(TrackerCfg(hidden=(8,)), WorldCfg())
+    assert tracker.control_dt_s == 0.02  # 50 Hz
+    path = tmp_path / "t.safetensors"
+    checkpoint.save(path, tracker, tracker.init(jax.random.key(0)))
+    assert checkpoint.load_any(path, WorldCfg())[0] == tracker
+    with pytest.raises(CheckpointError, match=r"control_dt_s 0.02 \(the world: 0.01\)"):
+        checkpoint.load_any(path, WorldCfg(episode=EpisodeCfg(control_hz=100)))

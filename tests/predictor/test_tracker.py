@@ -146,7 +146,7 @@ def test_held_out_reactive_coverage95_is_calibrated_and_halves_the_hold_error():
 
 
 def test_a_tracker_checkpoint_round_trips_and_is_not_a_frame_predictor(tmp_path):
-    tracker = Tracker(TrackerCfg(hidden=(8,)))
+    tracker = Tracker.for_world(TrackerCfg(hidden=(8,)), WorldCfg())
     params = tracker.init(jax.random.key(0))
     params["in_mean"] = jnp.arange(tracker.input_dim, dtype=jnp.float32)
     path = tmp_path / "tracker.safetensors"

@@ -9,9 +9,9 @@ from dyncatch.predictor.config import PredictorCfg
 from dyncatch.predictor.model import Predictor
 from dyncatch.rl.methods import GROUND_TRUTH, METHODS, MethodObs, method_obs
 from dyncatch.sim import env
+from dyncatch.sim.api import OBS_DIM
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.geometry import world_to_body
-from dyncatch.sim.state import OBS_DIM
 
 WORLD = WorldCfg().with_speed(1.2)
 
@@ -43,10 +43,10 @@ def test_rl_sees_the_plain_observation_and_gt_rl_the_true_velocity_in_the_base_f
     # The speed of the input is the target's speed (1.2 m/s).
     np.testing.assert_allclose(jnp.linalg.norm(x[OBS_DIM : OBS_DIM + 2]), 1.2, atol=1e-5)
     # The layout names every slot: the observation fields, then the velocity inputs.
-    layout = method_obs("gt_rl").layout()
+    layout = method_obs("gt_rl").layout(WORLD)
     assert sum(size for _, size in layout) == x.shape[0]
     assert [name for name, _ in layout[-2:]] == ["target_vel_body_mps", "target_vel_defined"]
-    assert sum(size for _, size in method_obs("rl").layout()) == OBS_DIM
+    assert sum(size for _, size in method_obs("rl").layout(WORLD)) == OBS_DIM
 
 
 def test_predictor_input_is_zero_until_two_consecutive_sightings():

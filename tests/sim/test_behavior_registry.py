@@ -29,6 +29,22 @@ from dyncatch.sim.validate import validate_world
 
 from .helpers import fixed_rollout, place, world_xy
 
+# Every numeric field of the composed TargetCfg with its documented default, in field order
+# (docs/model.md: the paper's 1.8 m/s cap, eq. 11-12's 3 m and 60 deg, gamma_max 22.5 deg).
+DEFAULTS = {
+    "speed_min_mps": 0.0,
+    "speed_max_mps": 1.8,
+    "max_turn_rate_rps": 10.0,
+    "radius_m": 0.1,
+    "height_m": 0.15,
+    "circle_radius_m": 5.0,
+    "evade_radius_m": 3.0,
+    "evade_angle_rad": math.radians(60.0),
+    "gamma_max_rad": math.radians(22.5),
+    "random_turn_max_rad": math.radians(90.0),
+    "random_turn_mean_interval_s": 1.0,
+    "random_turn_hold_s": 0.5,
+}
 BODY = ("behavior", "speed_min_mps", "speed_max_mps", "max_turn_rate_rps", "radius_m", "height_m")
 
 
@@ -64,15 +80,16 @@ class TestComposedTargetCfg:
         target = WorldCfg().target
         for cls in (TargetBodyCfg, CircleCfg, ReactiveCfg, RandomReactiveCfg):
             assert isinstance(target, cls)
-            for f in dataclasses.fields(cls):
-                assert getattr(target, f.name) == getattr(cls(), f.name)
-        assert target.circle_radius_m == 5.0 and target.evade_radius_m == 3.0
-        assert math.isclose(target.evade_angle_rad, math.radians(60.0))
-        assert math.isclose(target.random_turn_max_rad, math.radians(90.0))
+            # Each behaviour's own config, made alone, has the defaults the composition holds.
+            own = {f.name: getattr(cls(), f.name) for f in dataclasses.fields(cls)}
+            own.pop("behavior", None)
+            assert own == pytest.approx({k: DEFAULTS[k] for k in own})
+        assert {k: getattr(target, k) for k in DEFAULTS} == pytest.approx(DEFAULTS)
 
     def test_behavior_is_static_and_the_parameters_are_leaves(self):
         leaves, treedef = jax.tree.flatten(WorldCfg().target)
-        assert len(leaves) == len(_names(TargetCfg)) - 1  # all but the behaviour name
+        # The 12 numbers of DEFAULTS in field order; the behaviour name is in the treedef.
+        assert leaves == pytest.approx(list(DEFAULTS.values()))
         assert "reactive" in str(treedef)
 
     def test_the_cli_and_headers_keep_the_target_dot_field_names(self):

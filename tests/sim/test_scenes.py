@@ -21,7 +21,7 @@ from dyncatch.sim.frame import in_world_frame, recentre
 from dyncatch.sim.layouts import step_reach_m
 from dyncatch.sim.obstacles import Obstacles, signed_distance
 from dyncatch.sim.scan import robot_clearance_m
-from dyncatch.sim.scene_cfg import WoodsCfg
+from dyncatch.sim.scene_cfg import TerrainCfg, WoodsCfg
 from dyncatch.sim.scenes import SCENES, get_scene
 from dyncatch.sim.state import Obs
 from dyncatch.sim.terrain import terrain_command
@@ -50,7 +50,17 @@ def test_every_scene_is_registered():
         assert scene.walls == name.startswith("room") and scene.layout is not None
         assert (scene.duration_s, scene.scan_rays) == (40.0, 32)  # the paper's 40 s
     assert get_scene("woods_plane").terrain is None
-    assert get_scene("woods_rough").terrain(WorldCfg()) == WorldCfg().rough
+    # Each woods' ground reads its own field of the world: two made-up values tell them apart.
+    world = WorldCfg().replace(rough=TerrainCfg(speed_scale=0.1), stairs=TerrainCfg(lag_scale=3))
+    assert get_scene("woods_rough").terrain(world) == TerrainCfg(speed_scale=0.1)
+    assert get_scene("woods_stairs").terrain(world) == TerrainCfg(lag_scale=3)
+
+
+def test_for_scene_sets_the_scenes_length_and_rays_and_back():
+    woods = WorldCfg().for_scene("woods_plane")
+    assert (woods.episode.duration_s, woods.scene.scan_rays) == (40.0, 32)
+    back = woods.for_scene("open_plane")
+    assert (back.episode.duration_s, back.scene.scan_rays) == (20.0, 8)
 
 
 def test_room_obstacles_keep_their_gaps_from_each_other_and_the_walls():

@@ -13,6 +13,7 @@ from typing import Literal
 
 import tyro
 
+from dyncatch.reproduce.paper import PAPER_SPEEDS_MPS
 from dyncatch.sim.config import WorldCfg
 from dyncatch.utils.cli_types import BehaviorName, EvalBackendName
 
@@ -25,8 +26,8 @@ class EvalCmd:
     """A run folder written by dyncatch train, or a non-learned baseline: pursuit, intercept."""
     behavior: BehaviorName = "reactive"
     """Target behaviour."""
-    speeds: tuple[float, ...] = (0.8, 1.0, 1.2, 1.4, 1.6, 1.8)
-    """Target speeds (m/s), one row each."""
+    speeds: tuple[float, ...] = PAPER_SPEEDS_MPS
+    """Target speeds (m/s), one row each (default: the paper's Table I)."""
     episodes: int = 1000
     """Episodes per speed (each environment plays exactly one)."""
     seed: int = 0

@@ -18,7 +18,8 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from dyncatch.evaluation.grid import EVAL_STREAM
 
 NumpyPolicy = Callable[[np.ndarray], np.ndarray]
-"""obs (num_envs, 17) float32 -> actions (num_envs, A) in the env's action space."""
+"""obs (num_envs, D) float32 -> actions (num_envs, A) in the env's action space (D is
+``sim.api.obs_dim(world)``)."""
 
 
 def run_gym_episodes(env: VectorEnv, policy: NumpyPolicy, seed: int = 0) -> dict[str, np.ndarray]:

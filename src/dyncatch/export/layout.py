@@ -17,6 +17,7 @@ from collections.abc import Iterable
 from dyncatch.predictor.features import FEATURE_DOCS, get_encoder
 from dyncatch.predictor.model import Predictor
 from dyncatch.rl.methods import VELOCITY_INPUTS, MethodObs
+from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.state import Obs
 
 UNIT_SUFFIXES: dict[str, str] = {
@@ -84,10 +85,11 @@ def entries(parts: Iterable[tuple[str, int]], docs: dict[str, str]) -> list[dict
     return out
 
 
-def policy_layout(obs_fn: MethodObs) -> list[dict]:
-    """The policy's input vector (D,): ``Obs.flat`` then the method's velocity inputs."""
+def policy_layout(obs_fn: MethodObs, world: WorldCfg) -> list[dict]:
+    """The policy's input vector (D,) in ``world``: ``Obs.flat`` (its scan as wide as the
+    world's rays) then the method's velocity inputs."""
     docs = attribute_docs(Obs) | {name: doc for name, _, doc in VELOCITY_INPUTS}
-    return entries(obs_fn.layout(), docs)
+    return entries(obs_fn.layout(world), docs)
 
 
 def command_layout() -> list[dict]:

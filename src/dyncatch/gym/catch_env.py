@@ -224,7 +224,7 @@ class CatchEnv(gymnasium.Env[np.ndarray, np.ndarray]):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
-        """Start an episode. Returns (obs (17,) float32, {}).
+        """Start an episode. Returns (obs (D,) float32, {}), D = ``sim.api.obs_dim(world)``.
 
         ``options`` (``gym.options.RESET_OPTIONS``): ``behavior`` (a behaviour name) and
         ``speed_mps`` (a fixed target speed in m/s, or None for the built range); they
@@ -252,7 +252,7 @@ class CatchEnv(gymnasium.Env[np.ndarray, np.ndarray]):
     ) -> tuple[np.ndarray, float, bool, bool, dict[str, bool | float]]:
         """One control step under the base command ``action`` (3,).
 
-        Returns (obs (17,) float32, reward, terminated, truncated, info); info is the
+        Returns (obs (D,) float32, reward, terminated, truncated, info); info is the
         simulator's step info (``reward/<name>``, ``success``, ``terminated``,
         ``truncated``, ``distance_m``, ...; see ``sim.env.step``) as Python scalars.
         """

@@ -2,9 +2,10 @@
 
 Auto-reset happens in the same step (``AutoresetMode.SAME_STEP``): where an episode ends,
 the returned observation is the next episode's first, and the finished episode's last one
-is in ``info["final_obs"]`` (num_envs, 17), valid where ``info["_final_obs"]`` is True.
+is in ``info["final_obs"]`` (num_envs, D), valid where ``info["_final_obs"]`` is True.
 ``render()`` returns a tuple of frames, one per environment, as Gymnasium's ``VectorEnv``
-does; ``gymnasium.wrappers.vector.RecordVideo`` tiles them.
+does; ``gymnasium.wrappers.vector.RecordVideo`` tiles them. D is the observation's width,
+``sim.api.obs_dim(world)``.
 """
 
 from __future__ import annotations
@@ -65,10 +66,10 @@ class CatchVectorEnv(gymnasium.vector.VectorEnv):
         behavior, world, speed_mps, render_mode, env, render_size_px: as for ``CatchEnv``;
             with render_mode="rgb_array", ``render()`` returns one frame per environment.
 
-    ``step`` returns obs (num_envs, 17) float32, rewards (num_envs,) float32, terminations
+    ``step`` returns obs (num_envs, D) float32, rewards (num_envs,) float32, terminations
     and truncations (num_envs,) bool, and info with one (num_envs,) array per key of the
     single-env info with its ``_key`` mask of the environments whose episode goes on, plus
-    ``final_obs`` (num_envs, 17) (zeros where no episode ended) and ``final_info`` (the
+    ``final_obs`` (num_envs, D) (zeros where no episode ended) and ``final_info`` (the
     finished step's info), each with its ``_key`` mask of the environments whose episode
     ended: Gymnasium's layout for same-step auto-reset (its ``SyncVectorEnv`` keeps
     ``final_obs`` as an object array with None where no episode ended instead).
@@ -117,7 +118,7 @@ class CatchVectorEnv(gymnasium.vector.VectorEnv):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
-        """Start every episode anew. Returns (obs (num_envs, 17) float32, {}).
+        """Start every episode anew. Returns (obs (num_envs, D) float32, {}).
 
         ``options``: as for ``CatchEnv.reset`` (``behavior``, ``speed_mps``), for every
         environment, this and later episodes; any other key raises ValueError.

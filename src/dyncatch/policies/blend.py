@@ -33,6 +33,7 @@ from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.fields import static
 from dyncatch.sim.geometry import unit, wrap_angle
 from dyncatch.sim.scan import range_scan, robot_clearance_m
+from dyncatch.sim.scenes import CLUTTERED_SCAN_RAYS
 from dyncatch.sim.state import EnvState, Obs
 
 _TIE_RAD = 1e-5
@@ -43,9 +44,9 @@ _TIE_RAD = 1e-5
 class CollidCfg:
     """pi_collid, free-corridor steering on a range scan of its own."""
 
-    scan_rays: int = static(32)
+    scan_rays: int = static(CLUTTERED_SCAN_RAYS)
     """Rays of pi_collid's own scan (and its candidate directions), the rooms' and woods'
-    s_env (``Scene.scan_rays``), read whatever scan the catch policy was trained with."""
+    s_env, read whatever scan the catch policy was trained with."""
     margin_m: float = 0.15
     """Ours: the corridor is the footprint circle (0.36 m) grown by this, so a direction
     that grazes an obstacle is not free (gait noise 0.05 m/s per step, three sigma in 1 s);

@@ -21,6 +21,7 @@ from dyncatch.predictor.config import PredictorCfg
 from dyncatch.predictor.model import Predictor
 from dyncatch.predictor.tracker.config import TrackerCfg
 from dyncatch.predictor.tracker.model import Tracker
+from dyncatch.sim.config import WorldCfg
 from dyncatch.utils.tree_io import digest_ok, write_atomic_safetensors
 
 FORMAT = "dyncatch.predictor/1"
@@ -156,10 +157,30 @@ def load_tracker(path: str | os.PathLike) -> tuple[Tracker, dict]:
     return tracker, _checked_params(path, tracker, flat)
 
 
-def load_any(path: str | os.PathLike) -> tuple[Predictor | Tracker, dict]:
-    """A frame predictor's or a tracker's checkpoint, whichever ``path`` holds."""
+def check_world(path: str | os.PathLike, predictor: Predictor | Tracker, world: WorldCfg):
+    """Refuse a predictor or tracker whose recorded world quantities (arena size, camera
+    period, control period) are not ``world``'s: its inputs would be scaled wrongly."""
+    want = type(predictor).for_world(predictor.cfg, world)
+    got_d, want_d = dataclasses.asdict(predictor), dataclasses.asdict(want)
+    diff = [f"{k} {v!r} (the world: {want_d[k]!r})" for k, v in got_d.items() if v != want_d[k]]
+    if diff:
+        raise CheckpointError(
+            f"{path} was made for another world: {'; '.join(diff)}; use that world "
+            "(--world.arena.size-m, --world.sensor.rate-hz, --world.episode.control-hz) or "
+            "retrain the predictor in this one"
+        )
+
+
+def load_any(
+    path: str | os.PathLike, world: WorldCfg | None = None
+) -> tuple[Predictor | Tracker, dict]:
+    """A frame predictor's or a tracker's checkpoint, whichever ``path`` holds; with
+    ``world``, refused unless it was made for that world (``check_world``)."""
     meta, _ = _read(Path(path), (FORMAT, TRACKER_FORMAT))
-    return (load_tracker if meta["format"] == TRACKER_FORMAT else load)(path)
+    predictor, params = (load_tracker if meta["format"] == TRACKER_FORMAT else load)(path)
+    if world is not None:
+        check_world(path, predictor, world)
+    return predictor, params
 
 
 def read_info(path: str | os.PathLike) -> dict:

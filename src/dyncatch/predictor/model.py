@@ -38,10 +38,11 @@ class Predictor:
     """What a checkpoint must match: the network config and the world quantities it encodes."""
 
     cfg: PredictorCfg
-    arena_size_m: float = 16.0
-    """Side of the arena the wall features are scaled by."""
-    frame_dt_s: float = 0.5
-    """Time between camera frames (1 / f_vis); labels are displacements over it."""
+    arena_size_m: float
+    """Side of the arena the wall features are scaled by, the world's ``arena.size_m``."""
+    frame_dt_s: float
+    """Time between camera frames, the world's ``sensor.period_s``; labels are displacements
+    over it."""
 
     stateful = False
     """Reads only the environment state (the tracker carries a memory)."""
@@ -52,7 +53,9 @@ class Predictor:
 
     @classmethod
     def for_world(cls, cfg: PredictorCfg, world: WorldCfg) -> Predictor:
-        return cls(cfg, float(world.arena.size_m), 1.0 / float(world.sensor.rate_hz))
+        """The predictor of ``cfg`` in ``world``: the one way to make one (a checkpoint
+        records the world's quantities, and loading it into another world is refused)."""
+        return cls(cfg, float(world.arena.size_m), float(world.sensor.period_s))
 
     def encode(self, history: History) -> tuple[jax.Array, jax.Array]:
         """(inputs (D,), output yaw ()) for one history."""

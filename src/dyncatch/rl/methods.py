@@ -27,6 +27,7 @@ from flax import struct
 from dyncatch.predictor.features import history_from_state
 from dyncatch.predictor.model import Predictor
 from dyncatch.predictor.tracker.model import TRACKER, Tracker
+from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.geometry import world_to_body
 from dyncatch.sim.state import EnvState, Obs
 
@@ -294,13 +295,14 @@ class MethodObs:
         v = self.predictor.predict(self.predictor_params, history)
         return jnp.where(ok, v, 0.0), ok.astype(jnp.float32)
 
-    def layout(self) -> tuple[tuple[str, int], ...]:
-        """(name, size) of each part of the input vector, in order (sizes sum to D)."""
+    def layout(self, world: WorldCfg) -> tuple[tuple[str, int], ...]:
+        """(name, size) of each part of the input vector in ``world`` (whose ray count sets
+        the scan's width), in order (sizes sum to D)."""
         if self.velocity_input is None:
             extra = ()
         else:
             extra = TRACK_INPUTS if self.input_layout == "track" else VELOCITY_INPUTS
-        return Obs.layout() + tuple((name, size) for name, size, _ in extra)
+        return Obs.layout(world.scene.scan_rays) + tuple((name, size) for name, size, _ in extra)
 
     def __call__(self, state: EnvState, obs: Obs) -> jax.Array:
         """The policy's input vector, (D,), of a stateless input: ``obs.flat`` then the

@@ -147,7 +147,7 @@ def load_run(
             )
         from dyncatch.predictor.checkpoint import load_any
 
-        pred, pred_params = load_any(pred_path)
+        pred, pred_params = load_any(pred_path, world)
     obs_fn = m.obs_fn(pred, pred_params, evaluation=True)
     # The template is the train state of the method it was trained as (same input size).
     train_fn = get_method(trained).obs_fn(pred, pred_params) if method != trained else obs_fn

@@ -168,7 +168,7 @@ class TrainRunner:
         if get_method(cfg.method).predictor_kind is not None:
             from dyncatch.predictor.checkpoint import load_any
 
-            predictor, params = load_any(cfg.predictor)
+            predictor, params = load_any(cfg.predictor, world)
         self.obs_fn = get_method(cfg.method).obs_fn(predictor, params)
         self.mesh = mesh if mesh is not None else batch_mesh()
         validate_mesh(self.ppo, self.mesh.size)

@@ -10,7 +10,6 @@ new value. A second backend implements the same five members and needs no edit t
 
 from __future__ import annotations
 
-import math
 from typing import Any, Protocol, runtime_checkable
 
 import jax
@@ -20,14 +19,16 @@ from dyncatch.sim import env as sim_env
 from dyncatch.sim.base import command_high, command_low
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.obs_bounds import obs_bounds
-from dyncatch.sim.state import ACTION_DIM, OBS_DIM, EnvState, Obs
+from dyncatch.sim.state import ACTION_DIM, EnvState, Obs
 
 
 def obs_dim(world: WorldCfg) -> int:
-    """Length of ``Obs.flat`` in ``world``: ``OBS_DIM`` with the range scan's width set to
-    ``world.scene.scan_rays`` (``OBS_DIM`` holds the default 8 rays)."""
-    default_rays = math.prod(Obs.__dataclass_fields__["scan_m"].metadata["shape"])
-    return OBS_DIM - default_rays + world.scene.scan_rays
+    """Length of ``Obs.flat`` in ``world`` (its range scan has ``world.scene.scan_rays``)."""
+    return sum(size for _, size in Obs.layout(world.scene.scan_rays))
+
+
+OBS_DIM = obs_dim(WorldCfg())
+"""Length of ``Obs.flat`` in the default world, ``WorldCfg()``; ``obs_dim`` for another."""
 
 
 @struct.dataclass

@@ -138,6 +138,11 @@ class SensorCfg:
     noise_m: float = 0.0
     """Std of the position noise added to each observation."""
 
+    @property
+    def period_s(self) -> float:
+        """Time between camera frames, 1 / f_vis."""
+        return 1.0 / self.rate_hz
+
 
 VisibilityReading = Literal["per_second", "per_step"]
 SuccessReading = Literal["terminal", "every_step"]
@@ -234,9 +239,11 @@ class WorldCfg:
 
     def for_scene(self, scene: str) -> WorldCfg:
         """The world in ``scene`` with that scene's own episode length and ray count
-        (``Scene.duration_s``, ``Scene.scan_rays``: 40 s and 32 rays in rooms and woods)."""
+        (``Scene.duration_s``, ``Scene.scan_rays``; a scene without its own ray count
+        takes ``SceneCfg``'s default)."""
         s = get_scene(scene)
+        rays = SceneCfg().scan_rays if s.scan_rays is None else s.scan_rays
         return self.replace(
-            scene=self.scene.replace(name=scene, scan_rays=s.scan_rays),
+            scene=self.scene.replace(name=scene, scan_rays=rays),
             episode=self.episode.replace(duration_s=s.duration_s),
         )

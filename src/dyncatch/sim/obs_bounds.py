@@ -46,7 +46,7 @@ def velocity_bound_holds(cfg: WorldCfg):
 
 def obs_bounds(cfg: WorldCfg) -> tuple[Obs, Obs]:
     """(low, high): two ``Obs`` of float32 arrays, each field with its own shape (``Obs.flat``
-    of each gives the (OBS_DIM,) vectors); -inf / +inf where no bound is proven. Jit-safe:
+    of each gives the (obs_dim(cfg),) vectors); -inf / +inf where no bound is proven. Jit-safe:
     ``cfg``'s numeric fields may be traced."""
     inf = jnp.float32(jnp.inf)
     n_rays = cfg.scene.scan_rays

@@ -35,6 +35,12 @@ Check = tuple[bool, str, str]
 """(ok, dotted field name, what is wrong and what to do), as ``sim.validate`` reports it."""
 
 
+CLUTTERED_DURATION_S = 40.0
+"""The paper's episode length in the rooms and the woods (Fig. 9)."""
+CLUTTERED_SCAN_RAYS = 32
+"""The range scan's rays in the rooms and the woods (pi_collid's scan)."""
+
+
 def _no_checks(world: WorldCfg) -> list[Check]:
     del world
     return []
@@ -52,10 +58,12 @@ class Scene:
     terrain: TerrainFn | None = None
     """The terrain's gait constants; None: flat ground (``BaseCfg`` as it is)."""
     duration_s: float = 20.0
-    """The paper's episode length here (20 s on the open plane, 40 s in rooms and woods);
-    ``WorldCfg.for_scene`` applies it, ``--scene`` alone does not (docs/scenes.md)."""
-    scan_rays: int = 8
-    """Rays of the range scan suggested here; applied as ``duration_s``."""
+    """The paper's episode length here (20 s on the open plane, ``CLUTTERED_DURATION_S`` in
+    rooms and woods); ``WorldCfg.for_scene`` applies it, ``--scene`` alone does not
+    (docs/scenes.md)."""
+    scan_rays: int | None = None
+    """Rays of the range scan suggested here (None: the world's default,
+    ``SceneCfg.scan_rays``); applied as ``duration_s``."""
     validate: Callable[[WorldCfg], list[Check]] = _no_checks
     """Checks of the scene's own constants (layout, terrain); ``validate_world`` runs them
     for the active scene."""
@@ -80,8 +88,8 @@ def _room(count: int, name: str) -> Scene:
         "random each episode",
         walls=True,
         layout=partial(room_layout, count=count),
-        duration_s=40.0,
-        scan_rays=32,
+        duration_s=CLUTTERED_DURATION_S,
+        scan_rays=CLUTTERED_SCAN_RAYS,
         validate=partial(room_checks, count=count),
     )
 
@@ -95,8 +103,8 @@ def _woods(terrain_field: str | None, name: str, ground: str) -> Scene:
         walls=False,
         layout=woods_layout,
         terrain=None if terrain_field is None else attrgetter(terrain_field),
-        duration_s=40.0,
-        scan_rays=32,
+        duration_s=CLUTTERED_DURATION_S,
+        scan_rays=CLUTTERED_SCAN_RAYS,
         validate=_woods_validate(terrain_field),
     )
 

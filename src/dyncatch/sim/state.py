@@ -98,8 +98,13 @@ class EnvState:
     fixed per scene, so batches stack)."""
 
 
-def obs_field(shape: tuple[int, ...]):
-    """An ``Obs`` field of per-environment ``shape``; it takes prod(shape) slots of ``flat``."""
+SCAN_RAYS = "scan_rays"
+"""Stands in an ``Obs`` field's shape for the world's ray count, ``SceneCfg.scan_rays``."""
+
+
+def obs_field(shape: tuple[int | str, ...]):
+    """An ``Obs`` field of per-environment ``shape`` (``SCAN_RAYS`` for the world's ray
+    count); it takes prod(shape) slots of ``flat``."""
     return struct.field(metadata={"shape": shape})
 
 
@@ -107,7 +112,7 @@ def obs_field(shape: tuple[int, ...]):
 class Obs:
     """What a policy may see, all egocentric: nothing absolute (no world position or heading),
     so a policy is the same wherever and however the world is placed. ``flat`` is the
-    network view, (..., OBS_DIM), fields in order."""
+    network view, (..., obs_dim(world)) (``dyncatch.sim.api``), fields in order."""
 
     robot_vel_body_mps: jax.Array = obs_field((2,))
     """Base velocity (forward, left) in its own frame, (2,)."""
@@ -120,23 +125,23 @@ class Obs:
     """Time since the capture of the last sighting (episode time if never seen), ()."""
     visible: jax.Array = obs_field(())
     """1.0 if the last camera frame saw the target."""
-    scan_m: jax.Array = obs_field((8,))
+    scan_m: jax.Array = obs_field((SCAN_RAYS,))
     """s_env (eq. 3): range scan, the distance along each ray from the base centre to the
     nearest wall or obstacle, capped at ``scene.scan_range_m`` (the cap where nothing is hit),
-    (scene.scan_rays,); 8 rays by default."""
+    (scene.scan_rays,)."""
 
     @classmethod
-    def layout(cls, scan_rays: int = 8) -> tuple[tuple[str, int], ...]:
+    def layout(cls, scan_rays: int) -> tuple[tuple[str, int], ...]:
         """(field name, number of slots in ``flat``) of every field, in ``flat``'s order, for
-        a scan of ``scan_rays`` rays (``scene.scan_rays``)."""
+        a scan of ``scan_rays`` rays (the world's ``scene.scan_rays``)."""
         return tuple(
-            (f.name, scan_rays if f.name == "scan_m" else math.prod(f.metadata["shape"]))
+            (f.name, math.prod(scan_rays if d == SCAN_RAYS else d for d in f.metadata["shape"]))
             for f in dataclasses.fields(cls)
         )
 
     @property
     def flat(self) -> jax.Array:
-        """Every field flattened and concatenated in declaration order, (..., OBS_DIM)."""
+        """Every field flattened and concatenated in declaration order, (..., D)."""
         parts = []
         for f in dataclasses.fields(self):
             x, shape = getattr(self, f.name), f.metadata["shape"]
@@ -145,17 +150,5 @@ class Obs:
         return jnp.concatenate(parts, axis=-1)
 
 
-def _obs_dim() -> int:
-    # Shapes only, inside eval_shape: an array made at import would start a JAX backend
-    # before ``utils.jax_setup.setup_jax`` sets XLA's flags.
-    def flat():
-        return Obs(**{f.name: jnp.zeros(f.metadata["shape"]) for f in dataclasses.fields(Obs)}).flat
-
-    return jax.eval_shape(flat).shape[-1]
-
-
-OBS_DIM = _obs_dim()
-"""Length of ``Obs.flat`` with the default 8-ray scan, derived from the fields' shapes (so a
-new field updates it); ``dyncatch.sim.api.obs_dim(world)`` for another scan."""
 ACTION_DIM = 3
 """Base command (vx, vy, yaw rate)."""

@@ -54,7 +54,7 @@ def validate_world(cfg: WorldCfg) -> WorldCfg:
             f"bad world config: {name}: must be a finite number, got {value}; give a finite value"
         )
     t, s, e, b, a = cfg.target, cfg.sensor, cfg.episode, cfg.base, cfg.arm
-    period_s = 1.0 / s.rate_hz if s.rate_hz > 0 else float("inf")
+    period_s = s.period_s if s.rate_hz > 0 else float("inf")
     checks = [
         (
             cfg.scene.name in SCENES,

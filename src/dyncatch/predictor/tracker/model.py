@@ -125,9 +125,10 @@ def constant_turn(
 class Tracker:
     """What a checkpoint must match: the network config and the control period."""
 
-    cfg: TrackerCfg = TrackerCfg()
-    control_dt_s: float = 0.02
-    """Control period: the memory's clock advances by it each step."""
+    cfg: TrackerCfg
+    control_dt_s: float
+    """Control period, the world's ``episode.dt_s``: the memory's clock advances by it each
+    step."""
 
     kind = TRACKER
     stateful = True
