@@ -39,7 +39,7 @@ def test_a_damaged_data_byte_is_refused_naming_the_file(tmp_path):
 
 
 def test_a_damaged_predictor_checkpoint_is_refused(tmp_path):
-    predictor = Predictor(PredictorCfg(kind="vanilla", hidden=(8,)))
+    predictor = Predictor.for_world(PredictorCfg(kind="vanilla", hidden=(8,)), WorldCfg())
     path = tmp_path / "p.safetensors"
     checkpoint.save(path, predictor, predictor.init(jax.random.key(0)))
     checkpoint.load(path, predictor)
