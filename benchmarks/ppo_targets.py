@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 from dyncatch.evaluation.grid import evaluate_speeds
-from dyncatch.evaluation.resolve import resolve_policy
+from dyncatch.rl.resolve import resolve_policy
 from dyncatch.predictor.pipeline import PredictorTrainCfg, train_predictor
 from dyncatch.reproduce.layout import write_json
 from dyncatch.reproduce.pipeline import time_to_success

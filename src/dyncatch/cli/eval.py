@@ -74,7 +74,7 @@ def run_world_default(cmd: EvalCmd) -> EvalCmd:
 
 def run_eval(cmd: EvalCmd) -> dict:
     from dyncatch.evaluation.grid import evaluate_speeds
-    from dyncatch.evaluation.resolve import resolve_policy
+    from dyncatch.rl.resolve import resolve_policy
     from dyncatch.sim.validate import validate_world
     from dyncatch.utils.config_io import config_diff
 

@@ -17,8 +17,7 @@ from flax import struct
 from dyncatch.sim.behaviors import TargetCfg
 from dyncatch.sim.fields import static
 from dyncatch.sim.scene_cfg import ROUGH, STAIRS, AvoidCfg, RoomCfg, TerrainCfg, WoodsCfg
-from dyncatch.sim.scenes import get_scene
-from dyncatch.utils.cli_types import SceneName
+from dyncatch.sim.scenes import SceneName, get_scene
 
 
 @struct.dataclass

@@ -1,4 +1,5 @@
-"""A policy by name: a baseline of the registry, or a run folder written by training."""
+"""A policy by name: a baseline of the registry, or a run folder written by training (rl, not
+evaluation: it loads runs, and evaluation sits below rl)."""
 
 from __future__ import annotations
 
