@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import sys
 
-from dyncatch.reproduce.plan import Plan
+from dyncatch.cli.progress import rich_progress
+from dyncatch.reproduce.pipeline import run
+from dyncatch.reproduce.plan import Plan, validate_plan
 
 
 def run_reproduce(plan: Plan) -> dict:
-    from dyncatch.cli.progress import rich_progress
-    from dyncatch.reproduce.pipeline import run
-    from dyncatch.reproduce.plan import validate_plan
 
     plan = validate_plan(plan)
     command = "dyncatch " + " ".join(sys.argv[1:]) if sys.argv[1:] else "dyncatch reproduce"

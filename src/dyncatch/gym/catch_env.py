@@ -43,17 +43,19 @@ def seed_to_key(seed: int) -> jax.Array:
 
 
 def make_env(
-    behavior: str = "reactive",
+    behavior: str | None = None,
     world: WorldCfg | None = None,
     speed_mps: float | None = None,
     env: Environment | None = None,
 ) -> Environment:
     """The backend an adapter steps: ``env`` (default the JAX world ``JaxCatchEnv``) in
     ``world`` (default ``env.world``, else ``WorldCfg()``, the library's training default)
-    with its behaviour set and, if given, a fixed target speed; validated, so a bad value
-    fails here and not inside jitted code."""
+    with, if given, another behaviour (None: the world's own, ``world.target.behavior``) and a
+    fixed target speed; validated, so a bad value fails here and not inside jitted code."""
     env = env if env is not None else JaxCatchEnv()
-    cfg = (world if world is not None else env.world).with_behavior(behavior)
+    cfg = world if world is not None else env.world
+    if behavior is not None:
+        cfg = cfg.with_behavior(behavior)
     if speed_mps is not None:
         cfg = cfg.with_speed(float(speed_mps))
     return env.with_world(validate_world(cfg))
@@ -150,7 +152,7 @@ class CatchEnv(gymnasium.Env[np.ndarray, np.ndarray]):
 
     Args:
         behavior: target behaviour, a key of ``dyncatch.sim.behaviors.BEHAVIORS``; it
-            replaces ``world.target.behavior``.
+            replaces ``world.target.behavior`` (None: the world's own).
         world: the world config (default ``WorldCfg()``, the library's training default,
             the same reward ``dyncatch train`` uses).
         speed_mps: fix the target speed (``WorldCfg.with_speed``); None keeps the range.
@@ -171,7 +173,7 @@ class CatchEnv(gymnasium.Env[np.ndarray, np.ndarray]):
 
     def __init__(
         self,
-        behavior: str = "reactive",
+        behavior: str | None = None,
         world: WorldCfg | None = None,
         speed_mps: float | None = None,
         render_mode: str | None = None,

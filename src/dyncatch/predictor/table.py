@@ -21,9 +21,13 @@ import jax
 
 from dyncatch.predictor.config import TRACKER, CollectCfg, PredictorCfg, TrainCfg
 from dyncatch.predictor.data import budget_count, collect
+from dyncatch.predictor.features import FEATURES
 from dyncatch.predictor.model import Predictor
 from dyncatch.predictor.tracker.config import TrackerCfg, TrackerDataCfg, TrackerTrainCfg
+from dyncatch.predictor.tracker.pipeline import write_error_vs_time
+from dyncatch.predictor.tracker.table import tracker_rows
 from dyncatch.predictor.train import encode_samples, evaluate, fit
+from dyncatch.sim.behaviors import BEHAVIORS
 from dyncatch.sim.config import WorldCfg
 
 PAPER_TABLE_II: dict[tuple[str, str], tuple[float, ...]] = {
@@ -41,14 +45,12 @@ PAPER_BUDGETS = (200_000, 500_000, 1_000_000, 2_000_000)
 def all_behaviors() -> tuple[str, ...]:
     """Every registered target behaviour, read when called (a behaviour registered at run
     time is included)."""
-    from dyncatch.sim.behaviors import BEHAVIORS
 
     return tuple(BEHAVIORS)
 
 
 def all_kinds() -> tuple[str, ...]:
     """Every predictor kind (``dyncatch.predictor.features.FEATURES``)."""
-    from dyncatch.predictor.features import FEATURES
 
     return tuple(FEATURES)
 
@@ -89,7 +91,6 @@ def run_table(
     """Rows ``{"behavior", "kind", "budget_steps", "error_mps", "paper_error_mps",
     "train_samples", "eval_samples", "seconds"}``, one per cell (tracker rows: see
     ``predictor.tracker.table``; ``tracker`` is its configs, default the library's)."""
-    from dyncatch.predictor.tracker.table import tracker_rows
 
     rows = []
     key = jax.random.key(table.seed)
@@ -185,8 +186,6 @@ def write(rows: list[dict], out: Path, header: str = "") -> list[Path]:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
-    from dyncatch.predictor.tracker.pipeline import write_error_vs_time
 
     out.mkdir(parents=True, exist_ok=True)
     by_time = {

@@ -12,10 +12,23 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
+from dyncatch.policies.registry import BASELINES
+from dyncatch.predictor.table import all_behaviors, all_kinds
 from dyncatch.reproduce.paper import PAPER_SPEEDS_MPS
-from dyncatch.rl.config import PPOCfg
+from dyncatch.reproduce.readings import ReadingName, apply_readings
+from dyncatch.rl.config import PPOCfg, validate_ppo
+from dyncatch.rl.methods import (
+    MethodName,
+    check_selection,
+    predictor_kinds,
+    selected,
+    trained_methods,
+)
+from dyncatch.sim.behaviors import BEHAVIORS, BehaviorName
 from dyncatch.sim.config import WorldCfg
-from dyncatch.utils.cli_types import BehaviorName, ReadingName, SceneName
+from dyncatch.sim.scenes import SceneName
+from dyncatch.sim.validate import validate_world
+from dyncatch.utils.config_io import to_json
 
 
 @dataclass(frozen=True)
@@ -62,7 +75,7 @@ class Plan:
     """Held-out interaction steps per Table II behaviour."""
     table_ii_behaviors: tuple[BehaviorName, ...] | None = None
     """Rows of Table II (default: every registered behaviour)."""
-    methods: tuple[str, ...] | None = None
+    methods: tuple[MethodName, ...] | None = None
     """Methods compared, names of dyncatch.rl.methods.METHODS (default: all but the opt-in
     ones beyond the paper, st_rl and st_fp; list every method wanted to add them). A method
     evaluated with another's policy (sp_fp, st_fp) needs that one (gt_rl) listed too."""
@@ -124,7 +137,6 @@ class Plan:
     @property
     def fig6_columns(self) -> tuple[str, ...]:
         """The behaviours of Fig. 6 and the videos."""
-        from dyncatch.predictor.table import all_behaviors
 
         return self.fig6_behaviors if self.fig6_behaviors is not None else all_behaviors()
 
@@ -136,27 +148,23 @@ class Plan:
     @property
     def table_ii_rows(self) -> tuple[str, ...]:
         """The behaviours of Table II."""
-        from dyncatch.predictor.table import all_behaviors
 
         return self.table_ii_behaviors if self.table_ii_behaviors is not None else all_behaviors()
 
     @property
     def method_names(self) -> tuple[str, ...]:
         """The methods compared, in registry order."""
-        from dyncatch.rl.methods import selected
 
         return tuple(selected(self.methods))
 
     @property
     def training_runs(self) -> int:
-        from dyncatch.rl.methods import trained_methods
 
         return len(trained_methods(self.method_names)) * len(self.behaviors) * self.seeds
 
     def to_json(self) -> dict:
         """Everything that shapes the results (all fields but where they go and who runs
         the jobs), as JSON values."""
-        from dyncatch.utils.config_io import to_json
 
         d = to_json(self)
         for name in NOT_RECORDED:
@@ -204,7 +212,6 @@ PROFILES: dict[str, Plan] = {
 def profile_default(plan: Plan) -> Plan:
     """The profile and readings a first parse of the command line asked for: the command
     line is parsed again on top of them, so every flag given overrides both."""
-    from dyncatch.reproduce.readings import apply_readings
 
     return apply_readings(PROFILES[plan.profile], plan.setting)
 
@@ -225,10 +232,8 @@ EST_VIDEO_S = 10.0
 
 def estimate_s(plan: Plan) -> float:
     """A rough wall-time estimate (seconds) for the whole plan on 2 cores."""
-    from dyncatch.policies.registry import BASELINES
-    from dyncatch.predictor.table import all_kinds
+    # Local: this module imports plan (a cycle inside reproduce/, left to its owners).
     from dyncatch.reproduce.stages import fig6_evaluated_columns
-    from dyncatch.rl.methods import predictor_kinds
 
     columns = plan.fig6_columns
     groups = plan.training_runs // plan.seeds
@@ -246,6 +251,7 @@ def estimate_s(plan: Plan) -> float:
     videos = EST_VIDEO_S * len(columns) if plan.videos else 0.0
     fig9 = 0.0
     if plan.fig9:
+        # Local: this module imports plan (a cycle inside reproduce/, left to its owners).
         from dyncatch.reproduce.fig9 import rows_of
 
         # The seeds of a trained row share one compilation (a pytree policy is an argument).
@@ -263,12 +269,10 @@ def estimate_s(plan: Plan) -> float:
 
 def validate_plan(plan: Plan) -> Plan:
     """Raise ValueError naming the flag that cannot work."""
-    from dyncatch.rl.config import validate_ppo
-    from dyncatch.sim.behaviors import BEHAVIORS
-    from dyncatch.sim.validate import validate_world
 
     if plan.seeds < 1:
         raise ValueError(f"--seeds must be >= 1, got {plan.seeds}")
+    # Local: this module imports plan (a cycle inside reproduce/, left to its owners).
     from dyncatch.reproduce.executors import validate_executor
 
     validate_executor(plan)
@@ -290,8 +294,6 @@ def validate_plan(plan: Plan) -> Plan:
         )
     validate_ppo(plan.ppo)
     if plan.methods is not None:
-        from dyncatch.rl.methods import check_selection
-
         if not plan.methods:
             raise ValueError("--methods needs at least one method (or leave it unset)")
         check_selection(plan.methods)
@@ -312,8 +314,8 @@ def validate_plan(plan: Plan) -> Plan:
 
 
 def _validate_fig9(plan: Plan) -> None:
+    # Local: this module imports plan (a cycle inside reproduce/, left to its owners).
     from dyncatch.reproduce.fig9 import scene_world
-    from dyncatch.sim.validate import validate_world
 
     if not plan.fig9_scenes or not plan.fig9_behaviors:
         raise ValueError("--fig9-scenes and --fig9-behaviors need one each (or --no-fig9)")

@@ -104,13 +104,12 @@ def _predictor_job(plan: Plan, out: Path, behavior: str, kind: str, progress=Non
         return
     train = _predictor_train(plan)
     cfg = PredictorTrainCfg(
-        behavior=behavior,
         kind=kind,
         steps=plan.predictor_steps,
         out=d,
         eval_steps=plan.table_ii_eval_steps,
         train=train,
-        world=plan.world,
+        world=plan.world.with_behavior(behavior),
         tracker_train=TrackerTrainCfg(updates=train.updates, log_every=train.log_every),
     )
     train_predictor(cfg, progress)
@@ -161,7 +160,6 @@ def run_cfg(plan: Plan, out: Path, behavior: str, method: str, seed: int):
     d = run_dir(out, behavior, method, seed)
     return TrainRunCfg(
         method=method,
-        behavior=behavior,
         total_steps=plan.train_steps,
         seed=seed,
         out=d,
@@ -169,7 +167,7 @@ def run_cfg(plan: Plan, out: Path, behavior: str, method: str, seed: int):
         resume=(d / "checkpoint.safetensors").exists(),
         eval_speed_mps=plan.fig6_speed_mps,
         ppo=plan.ppo,
-        world=plan.world,
+        world=plan.world.with_behavior(behavior),
     )
 
 

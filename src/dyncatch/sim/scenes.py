@@ -22,6 +22,7 @@ import jax
 
 from dyncatch.sim.layouts import room_checks, room_layout, woods_checks, woods_layout
 from dyncatch.sim.obstacles import Obstacles
+from dyncatch.sim.terrain import terrain_checks
 from dyncatch.utils.cli_types import live_name
 
 if TYPE_CHECKING:
@@ -64,7 +65,6 @@ class Scene:
 
 def _woods_validate(terrain_field: str | None) -> Callable[[WorldCfg], list[Check]]:
     def checks(world: WorldCfg) -> list[Check]:
-        from dyncatch.sim.terrain import terrain_checks
 
         out = woods_checks(world)
         if terrain_field is not None:
