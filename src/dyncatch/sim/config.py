@@ -225,6 +225,8 @@ class WorldCfg:
         )
 
     def with_behavior(self, behavior: str) -> WorldCfg:
+        """The same world with another target behaviour (``target.behavior``, the one field:
+        ``--behavior`` on the command line), as grids over behaviours ask for it."""
         return self.replace(target=self.target.replace(behavior=behavior))
 
     def with_scene(self, scene: str) -> WorldCfg:
