@@ -24,10 +24,10 @@ import numpy as np
 import tyro
 
 from dyncatch.evaluation.grid import EVAL_STREAM
-from dyncatch.evaluation.resolve import resolve_policy
 from dyncatch.fullbody.catch import run_fullbody_episodes
 from dyncatch.fullbody.config import FullBodyCfg
 from dyncatch.policies.registry import BASELINES
+from dyncatch.rl.resolve import resolve_policy
 from dyncatch.sim.config import WorldCfg
 from dyncatch.utils.jax_setup import setup_jax
 

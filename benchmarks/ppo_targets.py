@@ -21,13 +21,13 @@ import time
 from pathlib import Path
 
 from dyncatch.evaluation.grid import evaluate_speeds
-from dyncatch.evaluation.resolve import resolve_policy
 from dyncatch.predictor.pipeline import PredictorTrainCfg, train_predictor
 from dyncatch.reproduce.layout import write_json
 from dyncatch.reproduce.report import color, label, read_curve
 from dyncatch.reproduce.summary import time_to_success
 from dyncatch.rl.config import PPOCfg
 from dyncatch.rl.methods import get_method
+from dyncatch.rl.resolve import resolve_policy
 from dyncatch.rl.runner import TrainRunCfg, TrainRunner
 from dyncatch.sim.config import WorldCfg
 

@@ -38,7 +38,7 @@ def test_bad_input_is_one_line_error(capsys):
 def test_a_baseline_deployed_with_the_blend_in_a_room(capsys, monkeypatch):
     """--blend wraps the policy that is evaluated (the evaluation itself is Fig. 9's,
     tested in tests/reproduce/test_fig9.py; here it is replaced to keep the test cheap)."""
-    import dyncatch.evaluation.grid as grid
+    import dyncatch.cli.eval as eval_cli
     from dyncatch.policies.blend import Blended
 
     seen = []
@@ -47,7 +47,7 @@ def test_a_baseline_deployed_with_the_blend_in_a_room(capsys, monkeypatch):
         seen.append((policy, world.scene.name))
         return [{"speed_mps": v, "episodes": episodes} for v in speeds]
 
-    monkeypatch.setattr(grid, "evaluate_speeds", fake)
+    monkeypatch.setattr(eval_cli, "evaluate_speeds", fake)
     argv = ["eval", "pursuit", "--scene", "room_8", "--speeds", "1.0", "--episodes", "4"]
     assert main([*argv, "--blend", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)

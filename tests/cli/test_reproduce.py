@@ -153,7 +153,7 @@ def test_a_behaviour_registered_at_run_time_is_a_cli_choice(capsys):
         _, full = parse(["reproduce", "--behaviors", "straight"])
         assert "straight" in full.fig6_columns and "straight" in full.table_ii_rows
         _, cfg = parse(["train", "--behavior", "straight"])
-        assert cfg.behavior == "straight"
+        assert cfg.world.target.behavior == "straight"
         _, table = parse(["predictor", "table", "--budgets", "2500"])
         assert "straight" in table.behaviors
     assert "straight" not in parse(["predictor", "table"])[1].behaviors

@@ -96,7 +96,7 @@ def test_a_seed_of_a_group_equals_its_separate_run(runs):
 SHARDED = """
 import sys, jax
 from dyncatch.cli.main import main, parse
-from dyncatch.rl.runner import make_runner
+from dyncatch.rl.seeds import make_runner
 
 assert jax.device_count() == 2, jax.devices()
 assert main(sys.argv[1:]) == 0
@@ -116,7 +116,7 @@ def test_a_run_resumed_at_its_end_reports_its_last_metrics(runs):
     """Nothing is left to train: the final metrics (reproduce's done.json) are the last
     logged row, for a group and for a single run, and no row is added."""
     from dyncatch.cli.main import parse
-    from dyncatch.rl.runner import make_runner
+    from dyncatch.rl.seeds import make_runner
 
     group, single = runs
     for out, extra in ((group, ["--seeds", "2", "--seed", "3"]), (single, ["--seed", "4"])):

@@ -227,7 +227,7 @@ class TestWriteVideo:
 class TestRenderCmd:
     @pytest.mark.parametrize(
         ("field", "value", "named"),
-        [("policy", "nope", "pursuit"), ("behavior", "nope", "reactive"),
+        [("policy", "nope", "pursuit"), ("world", WorldCfg().with_behavior("nope"), "reactive"),
          ("out", Path("x.avi"), ".gif")],
     )  # fmt: skip
     def test_bad_choices_raise_naming_the_choices(self, field, value, named):
@@ -240,8 +240,8 @@ class TestRenderCmd:
             resolve(RenderCmd(world=world))
 
     def test_run_render_writes_the_gif_and_reports_it(self, tmp_path, capsys):
-        cmd = RenderCmd(behavior="circle", speed_mps=SPEED_MPS, out=tmp_path / "c.gif",
-                        every=5, size_px=128)  # fmt: skip
+        cmd = RenderCmd(world=WorldCfg().with_behavior("circle"), speed_mps=SPEED_MPS,
+                        out=tmp_path / "c.gif", every=5, size_px=128)  # fmt: skip
         path = run_render(cmd)
         line = capsys.readouterr().out.strip()
         n_frames = len(iio.imread(path, index=None))

@@ -8,6 +8,7 @@ from functools import partial
 import jax
 import numpy as np
 
+from dyncatch.gym.catch_env import CatchEnv
 from dyncatch.sim.api import JaxCatchEnv
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.vec import batch_reset, batch_step
@@ -43,7 +44,6 @@ def jax_steps_per_s(cfg: WorldCfg, num_envs: int, min_steps: int = 500_000, repe
 
 def gym_loop_steps_per_s(cfg: WorldCfg, num_steps: int = 2000) -> float:
     """A plain Python loop over the single-environment Gymnasium adapter."""
-    from dyncatch.gym.catch_env import CatchEnv
 
     env = CatchEnv(behavior=cfg.target.behavior, world=cfg)
     env.reset(seed=0)

@@ -153,6 +153,7 @@ def fall_rate(env, cfg: GaitBenchCfg) -> float:
 
 def run_gait_benchmark(cfg: GaitBenchCfg, world: FullBodyCfg | None = None) -> dict:
     """Every figure of the module docstring, plus the wall time, as one JSON-able dict."""
+    # Imported here: fullbody.env needs MuJoCo, an optional dependency (the fullbody extra).
     from dyncatch.fullbody.env import FullBodyEnv
 
     world = FullBodyCfg() if world is None else world

@@ -21,6 +21,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from dyncatch.rl.config import PPOCfg
+from dyncatch.rl.seeds import stacked_init
+from dyncatch.rl.sharding import batch_mesh, state_shardings, validate_mesh
+from dyncatch.rl.train import make_train
 
 PEAK_ROWS = (512, 1024, 2048, 4096, 8192)
 """Row counts (batch sizes) at which the GEMM peak is measured."""
@@ -101,9 +104,6 @@ def ppo_samples_per_s(
 def compiled_train(env, ppo: PPOCfg, obs_fn, seeds: int = 1):
     """The jitted ``init`` and ``iterate`` the runners use: the batch split over every local
     device, and with ``seeds`` > 1 ``vmap``-ped over a leading seed axis."""
-    from dyncatch.rl.seeds import stacked_init
-    from dyncatch.rl.sharding import batch_mesh, state_shardings, validate_mesh
-    from dyncatch.rl.train import make_train
 
     mesh = batch_mesh()
     validate_mesh(ppo, mesh.size)

@@ -6,12 +6,20 @@ from __future__ import annotations
 import dataclasses
 import json
 
-from dyncatch.bench.gait_bench import GaitBenchCfg
-from dyncatch.bench.ppo_bench import PEAK_ROWS
-from dyncatch.fullbody.config import FullBodyCfg
-from dyncatch.rl.config import PPOCfg
+from dyncatch.bench.env_bench import run_env_benchmark
+from dyncatch.bench.gait_bench import GaitBenchCfg, run_gait_benchmark
+from dyncatch.bench.machine import machine_info
+from dyncatch.bench.ppo_bench import PEAK_ROWS, mlp_flops, run_ppo_benchmark
+from dyncatch.fullbody.config import FullBodyCfg, validate_fullbody
+from dyncatch.predictor.config import TRACKER, PredictorCfg
+from dyncatch.predictor.model import Predictor
+from dyncatch.predictor.tracker.config import TrackerCfg
+from dyncatch.predictor.tracker.model import Tracker
+from dyncatch.rl.config import PPOCfg, validate_ppo
+from dyncatch.rl.methods import MethodName, get_method
+from dyncatch.sim.api import JaxCatchEnv
 from dyncatch.sim.config import WorldCfg
-from dyncatch.utils.cli_types import BehaviorName
+from dyncatch.sim.validate import validate_world
 
 
 @dataclasses.dataclass(frozen=True)
@@ -27,9 +35,6 @@ class EnvBenchCmd:
 
 
 def run_env_bench(cmd: EnvBenchCmd) -> dict:
-    from dyncatch.bench.env_bench import run_env_benchmark
-    from dyncatch.bench.machine import machine_info
-    from dyncatch.sim.validate import validate_world
 
     validate_world(cmd.world)
     if any(n < 1 for n in cmd.num_envs):
@@ -63,11 +68,9 @@ def format_env_table(result: dict) -> str:
 class PPOBenchCmd:
     """PPO samples/s of whole iterations and the achieved fraction of this machine's GEMM peak."""
 
-    method: str = "rl"
+    method: MethodName = "rl"
     """Method whose inputs the policy sees (predictor methods use a freshly initialised
     predictor: the same cost as a trained one)."""
-    behavior: BehaviorName = "reactive"
-    """Target behaviour."""
     iterations: int = 5
     """Timed iterations per repeat (best of 3 repeats; compilation excluded)."""
     seeds: int = 1
@@ -80,24 +83,13 @@ class PPOBenchCmd:
     ppo: PPOCfg = PPOCfg()
     """PPO hyper-parameters and batch geometry (the thing being measured)."""
     world: WorldCfg = WorldCfg()
-    """The simulated world."""
+    """The simulated world, its target behaviour included (``--behavior``)."""
 
 
 def run_ppo_bench(cmd: PPOBenchCmd) -> dict:
     import jax
 
-    from dyncatch.bench.machine import machine_info
-    from dyncatch.bench.ppo_bench import mlp_flops, run_ppo_benchmark
-    from dyncatch.predictor.config import TRACKER, PredictorCfg
-    from dyncatch.predictor.model import Predictor
-    from dyncatch.predictor.tracker.config import TrackerCfg
-    from dyncatch.predictor.tracker.model import Tracker
-    from dyncatch.rl.config import validate_ppo
-    from dyncatch.rl.methods import get_method
-    from dyncatch.sim.api import JaxCatchEnv
-    from dyncatch.sim.validate import validate_world
-
-    world = validate_world(cmd.world.with_behavior(cmd.behavior))
+    world = validate_world(cmd.world)
     ppo = validate_ppo(cmd.ppo)
     if cmd.iterations < 1 or cmd.seeds < 1:
         raise ValueError(
@@ -176,8 +168,6 @@ class GaitBenchCmd:
 
 
 def run_gait_bench(cmd: GaitBenchCmd) -> dict:
-    from dyncatch.bench.gait_bench import run_gait_benchmark
-    from dyncatch.fullbody.config import validate_fullbody
 
     try:
         import mujoco  # noqa: F401

@@ -6,7 +6,15 @@ import dataclasses
 import json
 from pathlib import Path
 
+from dyncatch.evaluation.episodes import run_episodes
+from dyncatch.evaluation.stats import summarize
+from dyncatch.policies.pursuit import pursuit_policy
+from dyncatch.sim.behaviors import BEHAVIORS
 from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.validate import validate_speeds, validate_world
+from dyncatch.utils.files import check_out_dir
+from dyncatch.viz.render import render_frames, write_video
+from dyncatch.viz.trajectory import record_episode
 
 
 @dataclasses.dataclass(frozen=True)
@@ -31,15 +39,6 @@ def run_demo(cmd: DemoCmd) -> list[dict]:
     import jax
     from rich.console import Console
     from rich.table import Table
-
-    from dyncatch.evaluation.episodes import run_episodes
-    from dyncatch.evaluation.stats import summarize
-    from dyncatch.policies.pursuit import pursuit_policy
-    from dyncatch.sim.behaviors import BEHAVIORS
-    from dyncatch.sim.validate import validate_speeds, validate_world
-    from dyncatch.utils.files import check_out_dir
-    from dyncatch.viz.render import render_frames, write_video
-    from dyncatch.viz.trajectory import record_episode
 
     for behavior in BEHAVIORS:
         validate_world(cmd.world.with_behavior(behavior))

@@ -13,9 +13,17 @@ from typing import Literal
 
 import tyro
 
+from dyncatch.evaluation.backends import EvalBackendName
+from dyncatch.evaluation.grid import evaluate_speeds
+from dyncatch.policies.blend import Blended, PlaneScan, deploy
 from dyncatch.reproduce.paper import PAPER_SPEEDS_MPS
+from dyncatch.rl.methods import MethodName
+from dyncatch.rl.policy import checkpoint_path, header_world
+from dyncatch.rl.resolve import resolve_policy
 from dyncatch.sim.config import WorldCfg
-from dyncatch.utils.cli_types import BehaviorName, EvalBackendName
+from dyncatch.sim.validate import validate_speeds, validate_world
+from dyncatch.utils.config_io import config_diff
+from dyncatch.utils.tree_io import read_header
 
 
 @dataclasses.dataclass(frozen=True)
@@ -24,15 +32,13 @@ class EvalCmd:
 
     method: tyro.conf.Positional[str]
     """A run folder written by dyncatch train, or a non-learned baseline: pursuit, intercept."""
-    behavior: BehaviorName = "reactive"
-    """Target behaviour."""
     speeds: tuple[float, ...] = PAPER_SPEEDS_MPS
     """Target speeds (m/s), one row each (default: the paper's Table I)."""
     episodes: int = 1000
     """Episodes per speed (each environment plays exactly one)."""
     seed: int = 0
     """Evaluation seed."""
-    as_method: str | None = None
+    as_method: MethodName | None = None
     """Evaluate a run as a method that reuses its policy (sp_fp for a gt_rl run)."""
     predictor: Path | None = None
     """Predictor checkpoint, overriding the one the run was trained with (needed for sp_fp)."""
@@ -51,15 +57,12 @@ class EvalCmd:
     """Print one JSON object {"rows": [...], "world_changes": {...}, "deployment": {...}}
     instead of a table."""
     world: WorldCfg = WorldCfg()
-    """The simulated world: a run's training world, with any --world.* flag on top of it
-    (baselines: the library default)."""
+    """The simulated world: a run's training world (its behaviour included), with any
+    --world.* flag (--behavior, --scene) on top of it (baselines: the library default)."""
 
 
 def _run_world(target: str) -> WorldCfg | None:
     """The training world recorded in a run folder's checkpoint, or None if not a run."""
-    from dyncatch.rl.policy import checkpoint_path, header_world
-    from dyncatch.utils.tree_io import read_header
-
     path = checkpoint_path(target)
     if not path.is_file():
         return None
@@ -73,26 +76,19 @@ def run_world_default(cmd: EvalCmd) -> EvalCmd:
 
 
 def run_eval(cmd: EvalCmd) -> dict:
-    from dyncatch.evaluation.grid import evaluate_speeds
-    from dyncatch.evaluation.resolve import resolve_policy
-    from dyncatch.sim.validate import validate_speeds, validate_world
-    from dyncatch.utils.config_io import config_diff
-
     if cmd.episodes < 1:
         raise ValueError(f"--episodes must be >= 1, got {cmd.episodes}")
     validate_speeds(cmd.speeds, "--speeds")
     policy, method, trained_world = resolve_policy(
         cmd.method, cmd.world, cmd.as_method, cmd.predictor
     )
-    world = validate_world(cmd.world.with_behavior(cmd.behavior))
-    from dyncatch.policies.blend import deploy
+    world = validate_world(cmd.world)
 
     if trained_world is None and cmd.scan != "auto":
         raise ValueError("--scan applies to trained runs; a baseline reads no scan")
     policy = deploy(
         policy, trained_world, world, cmd.blend, None if cmd.scan == "auto" else cmd.scan
     )
-    from dyncatch.policies.blend import Blended, PlaneScan
 
     inner = policy.catch if isinstance(policy, Blended) else policy
     deployment = {
@@ -109,7 +105,14 @@ def run_eval(cmd: EvalCmd) -> dict:
         diff = config_diff(trained_world, world)
         changes = {k: v for k, v in diff.items() if not k.startswith("target.speed_")}
     rows = evaluate_speeds(
-        policy, world, cmd.behavior, cmd.speeds, cmd.episodes, cmd.seed, method, cmd.backend
+        policy,
+        world,
+        world.target.behavior,
+        cmd.speeds,
+        cmd.episodes,
+        cmd.seed,
+        method,
+        cmd.backend,
     )
     result = {
         "rows": rows,
@@ -119,7 +122,7 @@ def run_eval(cmd: EvalCmd) -> dict:
     if cmd.json:
         print(json.dumps(result))
         return result
-    print(f"{method} vs {cmd.behavior}, {cmd.episodes} episodes per speed ({cmd.backend})")
+    print(f"{method} vs {world.target.behavior}, {cmd.episodes} episodes per speed ({cmd.backend})")
     if cmd.blend or deployment["scan"] == "plane":
         print(f"deployed with blend={cmd.blend}, scan={deployment['scan']} (docs/scenes.md)")
     if changes:

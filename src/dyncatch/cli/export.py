@@ -7,6 +7,8 @@ from pathlib import Path
 
 import tyro
 
+from dyncatch.rl.methods import MethodName
+
 
 @dataclasses.dataclass(frozen=True)
 class ExportCmd:
@@ -16,13 +18,14 @@ class ExportCmd:
     """A run folder written by dyncatch train."""
     out: Path
     """Folder to write policy.onnx, predictor.onnx (predictor methods) and export.json to."""
-    as_method: str | None = None
+    as_method: MethodName | None = None
     """Export the run as a method that reuses its policy (sp_fp for a gt_rl run)."""
     predictor: Path | None = None
     """Predictor checkpoint, overriding the one the run was trained with (needed for sp_fp)."""
 
 
 def run_export(cmd: ExportCmd) -> dict:
+    # Imported here: the export needs onnx, which no other command loads.
     from dyncatch.export import export_run
     from dyncatch.utils.files import check_out_dir
 

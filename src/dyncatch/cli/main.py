@@ -10,6 +10,8 @@ import dataclasses
 import sys
 
 from dyncatch.cli.commands import COMMANDS, Command, Group
+from dyncatch.sim.validate import ConfigError
+from dyncatch.utils.jax_setup import setup_jax
 
 
 def _group_stub(name: str, group: Group) -> type:
@@ -48,8 +50,6 @@ def parse(argv: list[str]) -> tuple[Command, object]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from dyncatch.sim.validate import ConfigError
-    from dyncatch.utils.jax_setup import setup_jax
 
     try:
         command, cmd = parse(sys.argv[1:] if argv is None else argv)

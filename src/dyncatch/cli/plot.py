@@ -8,7 +8,7 @@ from pathlib import Path
 import tyro
 
 from dyncatch.reproduce.presentation import method_labels
-from dyncatch.viz.curves import DEFAULT_METRICS
+from dyncatch.viz.curves import DEFAULT_METRICS, save_curves
 
 
 @dataclasses.dataclass(frozen=True)
@@ -24,7 +24,6 @@ class PlotCmd:
 
 
 def run_plot(cmd: PlotCmd) -> Path:
-    from dyncatch.viz.curves import save_curves
 
     out = save_curves(cmd.runs, cmd.out, cmd.metrics, method_labels())
     print(f"{out}: {', '.join(cmd.metrics)} of {len(cmd.runs)} run(s)")

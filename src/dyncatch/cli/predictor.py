@@ -11,18 +11,39 @@ import json
 import time
 from pathlib import Path
 
-from dyncatch.predictor.config import TRACKER, CollectCfg, Frame, Kind, PredictorCfg, TrainCfg
-from dyncatch.predictor.pipeline import PredictorTrainCfg
-from dyncatch.predictor.table import all_behaviors, all_kinds
-from dyncatch.predictor.tracker.config import TrackerCfg, TrackerDataCfg, TrackerTrainCfg
+from dyncatch.cli.progress import rich_progress
+from dyncatch.predictor.config import (
+    TRACKER,
+    CollectCfg,
+    Frame,
+    Kind,
+    PredictorCfg,
+    TrainCfg,
+    validate,
+)
+from dyncatch.predictor.data import check_world
+from dyncatch.predictor.pipeline import PredictorTrainCfg, train_predictor
+from dyncatch.predictor.table import (
+    TRACKER_KEYS,
+    TableCfg,
+    all_behaviors,
+    all_kinds,
+    markdown,
+    run_table,
+    write,
+)
+from dyncatch.predictor.tracker.config import (
+    TrackerCfg,
+    TrackerDataCfg,
+    TrackerTrainCfg,
+    validate_tracker,
+)
 from dyncatch.reproduce.paper import PAPER_BUDGETS, PAPER_TABLE_II_ERRORS
+from dyncatch.sim.behaviors import BehaviorName
 from dyncatch.sim.config import WorldCfg
-from dyncatch.utils.cli_types import BehaviorName
 
 
 def run_predictor_train(cfg: PredictorTrainCfg) -> dict:
-    from dyncatch.cli.progress import rich_progress
-    from dyncatch.predictor.pipeline import train_predictor
 
     with rich_progress() as progress:
         metrics = train_predictor(cfg, progress)
@@ -67,11 +88,6 @@ class PredictorTableCmd:
 
 def run_predictor_table(cmd: PredictorTableCmd) -> list[dict]:
     from rich.console import Console
-
-    from dyncatch.predictor.config import validate
-    from dyncatch.predictor.pipeline import check_world
-    from dyncatch.predictor.table import TRACKER_KEYS, TableCfg, markdown, run_table, write
-    from dyncatch.predictor.tracker.config import validate_tracker
 
     cfg = PredictorCfg(frame=cmd.frame)
     validate(cfg, cmd.train, cmd.collect)

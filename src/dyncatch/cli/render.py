@@ -7,9 +7,10 @@ from collections.abc import Callable
 from pathlib import Path
 
 from dyncatch.policies.registry import BASELINES
-from dyncatch.sim.behaviors import BEHAVIORS
 from dyncatch.sim.config import WorldCfg
-from dyncatch.utils.cli_types import BehaviorName
+from dyncatch.sim.validate import validate_world
+from dyncatch.viz.render import VIDEO_SUFFIXES, render_frames, write_video
+from dyncatch.viz.trajectory import catch_time_s, record_episode
 
 PolicyFactory = Callable[[WorldCfg], Callable]
 
@@ -22,8 +23,6 @@ theirs."""
 class RenderCmd:
     """Play one episode of a policy against a target and write a top-down video of it."""
 
-    behavior: BehaviorName = "reactive"
-    """Target behaviour (circle, bounce, reactive, random_reactive); overrides world.target."""
     policy: str = "pursuit"
     """Policy to run, a key of dyncatch.cli.render.POLICIES."""
     speed_mps: float = 1.2
@@ -39,34 +38,26 @@ class RenderCmd:
     size_px: int = 480
     """Width and height of the video in pixels."""
     world: WorldCfg = WorldCfg()
-    """The simulated world; any model constant can be overridden here."""
+    """The simulated world, its target behaviour included (``--behavior``); any model
+    constant can be overridden here."""
 
 
 def resolve(cmd: RenderCmd) -> tuple[WorldCfg, Callable]:
     """The validated world and the policy a command asks for; ValueError names the choices."""
-    from dyncatch.sim.validate import validate_world
-    from dyncatch.viz.render import VIDEO_SUFFIXES
 
     if cmd.policy not in POLICIES:
         raise ValueError(f"unknown policy {cmd.policy!r}; choose one of {', '.join(POLICIES)}")
-    if cmd.behavior not in BEHAVIORS:
-        raise ValueError(
-            f"unknown behavior {cmd.behavior!r}; choose one of {', '.join(sorted(BEHAVIORS))}"
-        )
     if cmd.out.suffix.lower() not in VIDEO_SUFFIXES:
         raise ValueError(f"--out {cmd.out}: use one of the suffixes {', '.join(VIDEO_SUFFIXES)}")
     if cmd.fps < 1 or cmd.every < 1:
         raise ValueError(f"--fps and --every must be at least 1, got {cmd.fps} and {cmd.every}")
-    world = validate_world(cmd.world.with_behavior(cmd.behavior).with_speed(cmd.speed_mps))
+    world = validate_world(cmd.world.with_speed(cmd.speed_mps))
     return world, POLICIES[cmd.policy](world)
 
 
 def run_render(cmd: RenderCmd) -> Path:
     """Record, draw and write one episode; prints a one-line summary and returns the path."""
     import jax
-
-    from dyncatch.viz.render import render_frames, write_video
-    from dyncatch.viz.trajectory import catch_time_s, record_episode
 
     world, policy = resolve(cmd)
     traj = record_episode(policy, jax.random.PRNGKey(cmd.seed), world)
@@ -79,7 +70,7 @@ def run_render(cmd: RenderCmd) -> Path:
         else f"not caught in {traj['time_s'][-1]:.2f} s"
     )
     print(
-        f"{path}: {len(frames)} frames, {cmd.policy} vs {cmd.behavior} at "
+        f"{path}: {len(frames)} frames, {cmd.policy} vs {world.target.behavior} at "
         f"{cmd.speed_mps} m/s, {outcome}"
     )
     return path

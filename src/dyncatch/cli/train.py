@@ -3,12 +3,12 @@
 
 from __future__ import annotations
 
+from dyncatch.cli.progress import rich_progress
 from dyncatch.rl.runner import TrainRunCfg
+from dyncatch.rl.seeds import make_runner
 
 
 def run_train(cfg: TrainRunCfg) -> dict | list[dict]:
-    from dyncatch.cli.progress import rich_progress
-    from dyncatch.rl.runner import make_runner
 
     runner = make_runner(cfg)
     with rich_progress() as progress:

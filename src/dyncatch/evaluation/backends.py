@@ -11,6 +11,7 @@ import dataclasses
 from collections.abc import Callable
 
 from dyncatch.evaluation.episodes import run_episodes, run_episodes_at_speeds
+from dyncatch.utils.cli_types import live_name
 
 
 @dataclasses.dataclass(frozen=True)
@@ -48,6 +49,9 @@ EVAL_BACKENDS: dict[str, EvalBackend] = {
         ("fell",),
     ),
 }
+
+EvalBackendName = live_name(lambda: tuple(EVAL_BACKENDS), "BACKEND")
+"""A key of ``EVAL_BACKENDS``, read when the command line is parsed."""
 
 
 def get_backend(name: str) -> EvalBackend:

@@ -60,17 +60,19 @@ def spawn_workers_by_default() -> None:
 
 
 def make_env(
-    behavior: str = "reactive",
+    behavior: str | None = None,
     world: WorldCfg | None = None,
     speed_mps: float | None = None,
     env: Environment | None = None,
 ) -> Environment:
     """The backend an adapter steps: ``env`` (default the JAX world ``JaxCatchEnv``) in
     ``world`` (default ``env.world``, else ``WorldCfg()``, the library's training default)
-    with its behaviour set and, if given, a fixed target speed; validated, so a bad value
-    fails here and not inside jitted code."""
+    with, if given, another behaviour (None: the world's own, ``world.target.behavior``) and a
+    fixed target speed; validated, so a bad value fails here and not inside jitted code."""
     env = env if env is not None else JaxCatchEnv()
-    cfg = (world if world is not None else env.world).with_behavior(behavior)
+    cfg = world if world is not None else env.world
+    if behavior is not None:
+        cfg = cfg.with_behavior(behavior)
     if speed_mps is not None:
         if not isinstance(speed_mps, numbers.Real) or not math.isfinite(speed_mps):
             raise ValueError(f"speed_mps must be a finite number of m/s, got {speed_mps!r}")
@@ -169,7 +171,7 @@ class CatchEnv(gymnasium.Env[np.ndarray, np.ndarray]):
 
     Args:
         behavior: target behaviour, a key of ``dyncatch.sim.behaviors.BEHAVIORS``; it
-            replaces ``world.target.behavior``.
+            replaces ``world.target.behavior`` (None: the world's own).
         world: the world config (default ``WorldCfg()``, the library's training default,
             the same reward ``dyncatch train`` uses).
         speed_mps: fix the target speed (``WorldCfg.with_speed``); None keeps the range.
@@ -196,7 +198,7 @@ class CatchEnv(gymnasium.Env[np.ndarray, np.ndarray]):
 
     def __init__(
         self,
-        behavior: str = "reactive",
+        behavior: str | None = None,
         world: WorldCfg | None = None,
         speed_mps: float | None = None,
         render_mode: str | None = None,

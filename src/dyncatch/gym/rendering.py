@@ -12,9 +12,11 @@ from collections import deque
 import jax
 import numpy as np
 
+from dyncatch.policies.blend import reads_nothing
 from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.env import observe
 from dyncatch.sim.frame import to_world
-from dyncatch.viz.trajectory import state_row
+from dyncatch.viz.trajectory import scene_extras, state_row
 
 RENDER_MODES = ["rgb_array"]
 """The render modes both adapters offer."""
@@ -39,12 +41,9 @@ def _row_fns(world: WorldCfg):
     """(one state -> row, batched state -> rows): the drawn values; in a scene whose scan
     can read something, also the range scan and occluded sightings (``scene_extras``), as
     the reproduction's videos draw them."""
-    from dyncatch.policies.blend import reads_nothing
 
     if reads_nothing(world):
         return _state_row, _state_row
-    from dyncatch.sim.env import observe
-    from dyncatch.viz.trajectory import scene_extras
 
     extras = scene_extras(world)
 
@@ -76,6 +75,8 @@ class StateFrames:
 
     def set_world(self, world: WorldCfg) -> None:
         """Draw ``world`` from now on (the figure is rebuilt at the next frame if it changed)."""
+        # Imported here (and in _draw): viz.render loads matplotlib, which an env that is
+        # never rendered does not need.
         from dyncatch.viz.render import trail_rows
 
         if world != self.world:
@@ -98,7 +99,7 @@ class StateFrames:
 
     def _draw(self, row: dict, trail: np.ndarray) -> np.ndarray:
         if self._drawer is None:
-            from dyncatch.viz.render import TopDownDrawer
+            from dyncatch.viz.render import TopDownDrawer  # matplotlib: see set_world
 
             with_scan = self._row is not _state_row  # the row carries the scan
             self._drawer = TopDownDrawer(self.world, self.size_px, with_scan=with_scan)

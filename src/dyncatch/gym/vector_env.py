@@ -86,7 +86,7 @@ class CatchVectorEnv(gymnasium.vector.VectorEnv):
     def __init__(
         self,
         num_envs: int = 16,
-        behavior: str = "reactive",
+        behavior: str | None = None,
         world: WorldCfg | None = None,
         speed_mps: float | None = None,
         render_mode: str | None = None,

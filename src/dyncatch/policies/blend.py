@@ -33,7 +33,7 @@ from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.fields import static
 from dyncatch.sim.geometry import unit, wrap_angle
 from dyncatch.sim.scan import range_scan, robot_clearance_m
-from dyncatch.sim.scenes import CLUTTERED_SCAN_RAYS
+from dyncatch.sim.scenes import CLUTTERED_SCAN_RAYS, get_scene
 from dyncatch.sim.state import EnvState, Obs
 
 _TIE_RAD = 1e-5
@@ -210,7 +210,6 @@ def plane_scan(catch, world: WorldCfg) -> PlaneScan:
 def reads_nothing(world: WorldCfg) -> bool:
     """Whether the range scan of ``world``'s scene always reads its cap (no walls, no
     obstacles: the open plane)."""
-    from dyncatch.sim.scenes import get_scene
 
     scene = get_scene(world.scene.name)
     return not scene.walls and scene.layout is None

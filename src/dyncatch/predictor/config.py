@@ -5,7 +5,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
+from dyncatch.predictor.features import FEATURES
 from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.validate import ConfigError
 
 Kind = Literal["vanilla", "self_aware", "tracker"]
 TRACKER = "tracker"
@@ -78,8 +80,6 @@ class CollectCfg:
 
 def validate(predictor: PredictorCfg, train: TrainCfg, collect: CollectCfg) -> None:
     """Raise ConfigError naming the first field that cannot work (call at the boundary)."""
-    from dyncatch.predictor.features import FEATURES
-    from dyncatch.sim.validate import ConfigError
 
     checks = [
         (predictor.kind in FEATURES, "kind", f"choose one of {', '.join(FEATURES)}"),

@@ -30,6 +30,7 @@ from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.env import observe, reset, step
 from dyncatch.sim.frame import to_world
 from dyncatch.sim.sensing import latency_steps, period_steps
+from dyncatch.sim.validate import validate_world
 
 
 @struct.dataclass
@@ -167,3 +168,13 @@ def budget_count(samples: Samples, world: WorldCfg, cfg: CollectCfg, budget_step
     """How many leading samples come from the first ``budget_steps`` interaction steps."""
     envs = budget_steps // steps_per_env(cfg.interaction_world(world))
     return int(np.searchsorted(samples.env_index, envs, side="left"))
+
+
+def check_world(world: WorldCfg, behaviors, budgets, collect: CollectCfg) -> None:
+    """Raise naming the flag when a behaviour or a budget cannot work in ``world``."""
+    for b in behaviors:
+        validate_world(world.with_behavior(b))
+    per_env = steps_per_env(collect.interaction_world(world))
+    for n in budgets:
+        if n < per_env:
+            raise ValueError(f"budget {n} steps is below one episode ({per_env}): raise it")

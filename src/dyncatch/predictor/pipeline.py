@@ -12,10 +12,22 @@ import json
 import time
 from pathlib import Path
 
-from dyncatch.predictor.config import TRACKER, CollectCfg, Frame, Kind, PredictorCfg, TrainCfg
+from dyncatch.predictor import checkpoint
+from dyncatch.predictor.config import (
+    TRACKER,
+    CollectCfg,
+    Frame,
+    Kind,
+    PredictorCfg,
+    TrainCfg,
+    validate,
+)
+from dyncatch.predictor.data import check_world, collect
+from dyncatch.predictor.model import Predictor
 from dyncatch.predictor.tracker.config import TrackerCfg, TrackerDataCfg, TrackerTrainCfg
+from dyncatch.predictor.tracker.pipeline import train_tracker
+from dyncatch.predictor.train import encode_samples, evaluate, fit
 from dyncatch.sim.config import WorldCfg
-from dyncatch.utils.cli_types import BehaviorName
 from dyncatch.utils.progress import NoProgress, Progress
 
 
@@ -23,8 +35,6 @@ from dyncatch.utils.progress import NoProgress, Progress
 class PredictorTrainCfg:
     """Collect interaction data, train one predictor, save it and report its held-out error."""
 
-    behavior: BehaviorName = "reactive"
-    """Target behaviour, a key of dyncatch.sim.behaviors.BEHAVIORS."""
     kind: Kind = "self_aware"
     """vanilla (target observations only), self_aware (plus the robot's states) or tracker
     (the current position and velocity at 50 Hz, with uncertainty: docs/tracker.md)."""
@@ -45,7 +55,7 @@ class PredictorTrainCfg:
     collect: CollectCfg = CollectCfg()
     """Interaction data."""
     world: WorldCfg = WorldCfg()
-    """The simulated world (the behavior flag overrides world.target.behavior)."""
+    """The simulated world, its target behaviour included (``--behavior``)."""
     tracker: TrackerCfg = TrackerCfg()
     """The tracker's memory and network (kind tracker)."""
     tracker_train: TrackerTrainCfg = TrackerTrainCfg()
@@ -54,48 +64,27 @@ class PredictorTrainCfg:
     """The tracker's interaction data (kind tracker; collect is unused)."""
 
 
-def check_world(world: WorldCfg, behaviors, budgets, collect: CollectCfg) -> None:
-    """Raise naming the flag when a behaviour or a budget cannot work in ``world``."""
-    from dyncatch.predictor.data import steps_per_env
-    from dyncatch.sim.validate import validate_world
-
-    for b in behaviors:
-        validate_world(world.with_behavior(b))
-    per_env = steps_per_env(collect.interaction_world(world))
-    for n in budgets:
-        if n < per_env:
-            raise ValueError(f"budget {n} steps is below one episode ({per_env}): raise it")
-
-
 def train_predictor(cfg: PredictorTrainCfg, progress: Progress | None = None) -> dict:
     """Run the pipeline; returns ``{"behavior", "kind", "budget_steps", "train_samples",
     "eval_samples", "error_mps", "seconds"}`` (also written to ``metrics.json``)."""
     import jax
     from tensorboardX import SummaryWriter
 
-    from dyncatch.predictor import checkpoint
-    from dyncatch.predictor.config import validate
-    from dyncatch.predictor.data import collect
-    from dyncatch.predictor.model import Predictor
-    from dyncatch.predictor.train import encode_samples, evaluate, fit
-
     if cfg.kind == TRACKER:
-        from dyncatch.predictor.tracker.pipeline import train_tracker
-
         return train_tracker(cfg, progress)
     progress = progress or NoProgress()
     predictor_cfg = PredictorCfg(kind=cfg.kind, frame=cfg.frame, hidden=cfg.hidden)
     validate(predictor_cfg, cfg.train, cfg.collect)
-    check_world(cfg.world, [cfg.behavior], [cfg.steps], cfg.collect)
-    world = cfg.world.with_behavior(cfg.behavior)
+    check_world(cfg.world, [cfg.world.target.behavior], [cfg.steps], cfg.collect)
+    world = cfg.world
     predictor = Predictor.for_world(predictor_cfg, world)
     k_data, k_eval, k_fit = jax.random.split(jax.random.key(cfg.seed), 3)
     cfg.out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    update = progress.task(f"collecting ({cfg.behavior}, {cfg.kind})", cfg.steps)
+    update = progress.task(f"collecting ({world.target.behavior}, {cfg.kind})", cfg.steps)
     data, used = collect(k_data, world, cfg.collect, cfg.steps, update)
     held_out, _ = collect(k_eval, world, cfg.collect, cfg.eval_steps)
-    update = progress.task(f"training ({cfg.behavior}, {cfg.kind})", cfg.train.updates)
+    update = progress.task(f"training ({world.target.behavior}, {cfg.kind})", cfg.train.updates)
     writer = SummaryWriter(str(cfg.out / "tb"))
     with (cfg.out / "loss.csv").open("w") as log:
         log.write("update,loss_mps\n")
@@ -113,7 +102,7 @@ def train_predictor(cfg: PredictorTrainCfg, progress: Progress | None = None) ->
     writer.add_scalar("eval/error_mps", error, cfg.train.updates)
     writer.close()
     metrics = {
-        "behavior": cfg.behavior,
+        "behavior": world.target.behavior,
         "kind": cfg.kind,
         "budget_steps": used,
         "train_samples": n,

@@ -21,23 +21,25 @@ import jax
 
 from dyncatch.predictor.config import TRACKER, CollectCfg, PredictorCfg, TrainCfg
 from dyncatch.predictor.data import budget_count, collect
+from dyncatch.predictor.features import FEATURES
 from dyncatch.predictor.model import Predictor
 from dyncatch.predictor.tracker.config import TrackerCfg, TrackerDataCfg, TrackerTrainCfg
+from dyncatch.predictor.tracker.pipeline import write_error_vs_time
+from dyncatch.predictor.tracker.table import tracker_rows
 from dyncatch.predictor.train import encode_samples, evaluate, fit
+from dyncatch.sim.behaviors import BEHAVIORS
 from dyncatch.sim.config import WorldCfg
 
 
 def all_behaviors() -> tuple[str, ...]:
     """Every registered target behaviour, read when called (a behaviour registered at run
     time is included)."""
-    from dyncatch.sim.behaviors import BEHAVIORS
 
     return tuple(BEHAVIORS)
 
 
 def all_kinds() -> tuple[str, ...]:
     """Every predictor kind (``dyncatch.predictor.features.FEATURES``)."""
-    from dyncatch.predictor.features import FEATURES
 
     return tuple(FEATURES)
 
@@ -76,7 +78,6 @@ def run_table(
     ``paper_errors`` are the published errors by (behaviour, kind, budget), shown beside
     ours (``dyncatch.reproduce.paper.PAPER_TABLE_II_ERRORS``); a cell without one has None."""
     paper_errors = paper_errors or {}
-    from dyncatch.predictor.tracker.table import tracker_rows
 
     rows = []
     key = jax.random.key(table.seed)
@@ -172,8 +173,6 @@ def write(rows: list[dict], out: Path, header: str = "") -> list[Path]:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
-    from dyncatch.predictor.tracker.pipeline import write_error_vs_time
 
     out.mkdir(parents=True, exist_ok=True)
     by_time = {

@@ -15,10 +15,13 @@ from typing import Literal
 from dyncatch.predictor.table import all_behaviors
 from dyncatch.reproduce.paper import PAPER_FIG9_SCENES, PAPER_SPEEDS_MPS
 from dyncatch.reproduce.presentation import chosen
+from dyncatch.reproduce.readings import ReadingName, apply_readings
 from dyncatch.rl.config import PPOCfg
-from dyncatch.rl.methods import trained_methods
+from dyncatch.rl.methods import MethodName, trained_methods
+from dyncatch.sim.behaviors import BehaviorName
 from dyncatch.sim.config import WorldCfg
-from dyncatch.utils.cli_types import BehaviorName, ReadingName, SceneName
+from dyncatch.sim.scenes import SceneName
+from dyncatch.utils.config_io import to_json
 
 
 @dataclass(frozen=True)
@@ -65,7 +68,7 @@ class Plan:
     """Held-out interaction steps per Table II behaviour."""
     table_ii_behaviors: tuple[BehaviorName, ...] | None = None
     """Rows of Table II (default: every registered behaviour)."""
-    methods: tuple[str, ...] | None = None
+    methods: tuple[MethodName, ...] | None = None
     """Methods compared, names of dyncatch.rl.methods.METHODS (default: all but the opt-in
     ones beyond the paper, st_rl and st_fp, as dyncatch.reproduce.presentation marks them;
     list every method wanted to add them). A method
@@ -145,7 +148,6 @@ class Plan:
     def to_json(self) -> dict:
         """Everything that shapes the results (all fields but where they go and who runs
         the jobs), as JSON values."""
-        from dyncatch.utils.config_io import to_json
 
         d = to_json(self)
         for name in NOT_RECORDED:
@@ -193,6 +195,5 @@ PROFILES: dict[str, Plan] = {
 def profile_default(plan: Plan) -> Plan:
     """The profile and readings a first parse of the command line asked for: the command
     line is parsed again on top of them, so every flag given overrides both."""
-    from dyncatch.reproduce.readings import apply_readings
 
     return apply_readings(PROFILES[plan.profile], plan.setting)

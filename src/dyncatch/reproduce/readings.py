@@ -12,8 +12,13 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-from dyncatch.reproduce.plan import Plan
+from dyncatch.utils.cli_types import live_name
+
+if TYPE_CHECKING:
+    # For annotations only: plan.py imports this module (its ``--setting`` names).
+    from dyncatch.reproduce.plan import Plan
 
 
 @dataclass(frozen=True)
@@ -111,6 +116,9 @@ READINGS: dict[str, Reading] = {
         ),
     )
 }
+
+ReadingName = live_name(lambda: tuple(READINGS), "READING")
+"""A key of ``READINGS``, read when the command line is parsed."""
 
 
 def get_reading(name: str) -> Reading:

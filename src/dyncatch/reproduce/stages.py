@@ -87,13 +87,12 @@ def predictor_jobs(plan: Plan, out: Path) -> list[Job]:
         d = predictor_dir(out, behavior, kind)
         if not predictor_done(d):
             cfg = PredictorTrainCfg(
-                behavior=behavior,
                 kind=kind,
                 steps=plan.predictor_steps,
                 out=d,
                 eval_steps=plan.table_ii_eval_steps,
                 train=train,
-                world=plan.world,
+                world=plan.world.with_behavior(behavior),
                 tracker_train=tracker,
             )
             jobs.append(PredictorJob(cfg))
@@ -123,7 +122,6 @@ def run_cfg(plan: Plan, out: Path, behavior: str, method: str, seed: int) -> Tra
     """The training run of (behaviour, method, seed); ``TrainJob`` sets ``resume``."""
     return TrainRunCfg(
         method=method,
-        behavior=behavior,
         total_steps=plan.train_steps,
         seed=seed,
         out=run_dir(out, behavior, method, seed),
@@ -131,7 +129,7 @@ def run_cfg(plan: Plan, out: Path, behavior: str, method: str, seed: int) -> Tra
         resume=False,
         eval_speed_mps=plan.fig6_speed_mps,
         ppo=plan.ppo,
-        world=plan.world,
+        world=plan.world.with_behavior(behavior),
     )
 
 

@@ -16,6 +16,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
 
+from dyncatch.utils.cli_types import live_name
+
 Metrics = dict[str, float | str]
 
 
@@ -170,6 +172,9 @@ LOGGERS: dict[str, LoggerKind] = {
     ),
 }
 """The loggers of ``dyncatch train --logger``, by name."""
+
+LoggerName = live_name(lambda: tuple(LOGGERS), "LOGGER")
+"""A key of ``LOGGERS``, read when the command line is parsed."""
 
 
 def validate_loggers(names: Sequence[str]) -> tuple[str, ...]:

@@ -30,6 +30,7 @@ from dyncatch.predictor.tracker.model import TRACKER, Tracker
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.geometry import world_to_body
 from dyncatch.sim.state import EnvState, Obs
+from dyncatch.utils.cli_types import live_name
 
 GROUND_TRUTH = "ground_truth"
 """The velocity input of the oracle: the target's true velocity (the paper's GT-Pred)."""
@@ -197,6 +198,9 @@ METHODS: dict[str, Method] = {
         ),
     )
 }
+
+MethodName = live_name(lambda: tuple(METHODS), "METHOD")
+"""A key of ``METHODS``, read when the command line is parsed."""
 
 
 def get_method(name: str) -> Method:

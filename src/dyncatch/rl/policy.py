@@ -16,17 +16,23 @@ from typing import Any
 import jax
 from flax import struct
 
+from dyncatch.predictor.checkpoint import load_any
 from dyncatch.rl.config import PPOCfg
 from dyncatch.rl.methods import METHODS, MethodObs, get_method
 from dyncatch.rl.networks import ActorCritic
 from dyncatch.rl.normalize import RunningNorm
-from dyncatch.rl.runner import CHECKPOINT, TRAIN_FORMAT
 from dyncatch.rl.train import make_train, to_command
 from dyncatch.sim.api import Environment, JaxCatchEnv
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.state import EnvState, Obs
 from dyncatch.utils.config_io import ConfigDictError, from_dict
 from dyncatch.utils.tree_io import TreeFileError, load_fields, read_header
+
+CHECKPOINT = "checkpoint.safetensors"
+"""The checkpoint's name in a run folder (``rl.runner`` writes it, ``load_run`` reads it)."""
+TRAIN_FORMAT = "dyncatch.train/2"
+"""Checkpoint format; /2 reads the visibility weight per second by a named field and keeps
+each behaviour's typed state (runs of /1 must be retrained)."""
 
 
 @struct.dataclass
@@ -145,7 +151,6 @@ def load_run(
             raise ValueError(
                 f"method {method!r} needs --predictor PATH (a {m.predictor_kind!r} one)"
             )
-        from dyncatch.predictor.checkpoint import load_any
 
         pred, pred_params = load_any(pred_path, world)
     obs_fn = m.obs_fn(pred, pred_params, evaluation=True)
@@ -158,5 +163,4 @@ def load_run(
     # shape since training (a scene added a field) without changing the policy.
     got, _ = load_fields(path, template, ("params", "norm"))
     policy = LearnedPolicy(net, got["params"], got["norm"], obs_fn, env)
-    behavior = header_field(path, header, "behavior")
-    return Run(policy, method, trained, behavior, world, header)
+    return Run(policy, method, trained, world.target.behavior, world, header)

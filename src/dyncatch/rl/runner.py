@@ -6,7 +6,8 @@ around the pure, jitted ``make_train``. Everything that touches files lives here
 (``dyncatch train``) and the reproduction pipeline both call it and only attach a progress
 display. The state lives on every local device (``dyncatch.rl.sharding``): the environment
 batch and the PPO minibatches are split over them. ``dyncatch.rl.seeds.SeedGroupRunner``
-trains several seeds of one config as one ``vmap``-ped computation; ``make_runner`` picks.
+trains several seeds of one config as one ``vmap``-ped computation; ``rl.seeds.make_runner``
+picks.
 """
 
 from __future__ import annotations
@@ -19,33 +20,31 @@ from pathlib import Path
 import jax
 from jax.sharding import Mesh
 
+from dyncatch.evaluation.episodes import run_episodes
+from dyncatch.evaluation.grid import EVAL_STREAM
+from dyncatch.predictor.checkpoint import load_any
 from dyncatch.rl.config import PPOCfg, validate_ppo
 from dyncatch.rl.guard import check_finite
-from dyncatch.rl.logging import MetricLog, validate_loggers
-from dyncatch.rl.methods import get_method
+from dyncatch.rl.logging import LoggerName, MetricLog, validate_loggers
+from dyncatch.rl.methods import MethodName, get_method
+from dyncatch.rl.policy import CHECKPOINT, TRAIN_FORMAT, LearnedPolicy
+from dyncatch.rl.sharding import batch_mesh, state_shardings, validate_mesh
 from dyncatch.rl.train import TrainState, make_train
 from dyncatch.sim.api import Environment, JaxCatchEnv
 from dyncatch.sim.config import WorldCfg
-from dyncatch.sim.validate import validate_speeds
-from dyncatch.utils.cli_types import BehaviorName, LoggerName
+from dyncatch.sim.validate import validate_speeds, validate_world
 from dyncatch.utils.files import check_out_dir
 from dyncatch.utils.progress import NoProgress, Progress
-
-CHECKPOINT = "checkpoint.safetensors"
-TRAIN_FORMAT = "dyncatch.train/2"
-"""Checkpoint format; /2 reads the visibility weight per second by a named field and keeps
-each behaviour's typed state (runs of /1 must be retrained)."""
+from dyncatch.utils.tree_io import load_tree, save_tree
 
 
 @dataclasses.dataclass(frozen=True)
 class TrainRunCfg:
     """Train a catching policy with PPO."""
 
-    method: str = "sp_rl"
+    method: MethodName = "sp_rl"
     """A trained method of dyncatch.rl.methods.METHODS (sp_fp is gt_rl evaluated with the
     predictor)."""
-    behavior: BehaviorName = "reactive"
-    """Target behaviour, a key of dyncatch.sim.behaviors.BEHAVIORS."""
     total_steps: int = 2_000_000
     """Environment steps to train for (rounded up to whole iterations)."""
     seed: int = 0
@@ -86,11 +85,12 @@ def header_of(cfg: TrainRunCfg) -> dict:
     return {
         "format": TRAIN_FORMAT,
         "method": cfg.method,
-        "behavior": cfg.behavior,
+        # The world's behaviour again, for readers of the file (and older runs' headers).
+        "behavior": cfg.world.target.behavior,
         "seed": cfg.seed,
         "predictor": str(cfg.predictor) if cfg.predictor else None,
         "ppo": dataclasses.asdict(cfg.ppo),
-        "world": dataclasses.asdict(cfg.world.with_behavior(cfg.behavior)),
+        "world": dataclasses.asdict(cfg.world),
     }
 
 
@@ -113,15 +113,6 @@ def seed_cfgs(cfg: TrainRunCfg) -> list[TrainRunCfg]:
         dataclasses.replace(cfg, seed=s, seeds=1, out=cfg.out / f"seed{s}")
         for s in range(cfg.seed, cfg.seed + cfg.seeds)
     ]
-
-
-def make_runner(cfg: TrainRunCfg, env: Environment | None = None):
-    """A ``TrainRunner`` for one seed, a ``SeedGroupRunner`` for ``--seeds`` > 1."""
-    if cfg.seeds == 1:
-        return TrainRunner(cfg, env)
-    from dyncatch.rl.seeds import SeedGroupRunner
-
-    return SeedGroupRunner(seed_cfgs(cfg), env)
 
 
 def _validate(cfg: TrainRunCfg) -> None:
@@ -155,19 +146,15 @@ class TrainRunner:
     """
 
     def __init__(self, cfg: TrainRunCfg, env: Environment | None = None, mesh: Mesh | None = None):
-        from dyncatch.rl.sharding import batch_mesh, state_shardings, validate_mesh
-        from dyncatch.sim.validate import validate_world
 
         _validate(cfg)
         check_out_dir(cfg.out)
         self.cfg = cfg
         self.ppo = validate_ppo(cfg.ppo)
-        world = validate_world(cfg.world.with_behavior(cfg.behavior))
+        world = validate_world(cfg.world)
         self.env = (env if env is not None else JaxCatchEnv()).with_world(world)
         predictor = params = None
         if get_method(cfg.method).predictor_kind is not None:
-            from dyncatch.predictor.checkpoint import load_any
-
             predictor, params = load_any(cfg.predictor, world)
         self.obs_fn = get_method(cfg.method).obs_fn(predictor, params)
         self.mesh = mesh if mesh is not None else batch_mesh()
@@ -182,13 +169,11 @@ class TrainRunner:
 
     def save(self, ts: TrainState) -> Path:
         """Write the checkpoint atomically, with the run's header."""
-        from dyncatch.utils.tree_io import save_tree
 
         return save_tree(self.checkpoint, ts, self.header)
 
     def load(self) -> TrainState:
         """The checkpoint in ``out``; refused if it was trained with other settings."""
-        from dyncatch.utils.tree_io import load_tree
 
         template = jax.eval_shape(self._init, jax.random.key(self.cfg.seed))
         ts, saved = load_tree(self.checkpoint, template)
@@ -214,9 +199,6 @@ class TrainRunner:
     def evaluate(self, ts: TrainState) -> dict[str, float]:
         """Unbiased success and catch time of the mean-action policy at ``eval_speed_mps``,
         on evaluation seeds disjoint from training (the same seeds at every call)."""
-        from dyncatch.evaluation.episodes import run_episodes
-        from dyncatch.evaluation.grid import EVAL_STREAM
-        from dyncatch.rl.policy import LearnedPolicy
 
         policy = LearnedPolicy(self.net, ts.params, ts.norm, self.obs_fn, self.env)
         key = jax.random.fold_in(jax.random.key(self.cfg.seed), EVAL_STREAM)
@@ -243,7 +225,7 @@ class TrainRunner:
         cfg, ppo = self.cfg, self.ppo
         total_iters = -(-cfg.total_steps // ppo.batch_size)
         update = (progress or NoProgress()).task(
-            f"{cfg.method} vs {cfg.behavior}", total_iters, start
+            f"{cfg.method} vs {cfg.world.target.behavior}", total_iters, start
         )
         update(start, "compiling")
         # A run resumed at its end trains nothing: its final metrics are the last logged.

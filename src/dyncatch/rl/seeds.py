@@ -27,7 +27,7 @@ from jax.sharding import Mesh
 
 from dyncatch.rl.guard import check_finite
 from dyncatch.rl.logging import MetricLog
-from dyncatch.rl.runner import TrainRunCfg, TrainRunner, eval_due
+from dyncatch.rl.runner import TrainRunCfg, TrainRunner, eval_due, seed_cfgs
 from dyncatch.rl.sharding import state_shardings
 from dyncatch.rl.train import TrainState, make_train
 from dyncatch.sim.api import Environment
@@ -156,7 +156,7 @@ class SeedGroupRunner:
         total_iters = -(-cfg.total_steps // ppo.batch_size)
         seeds = [r.cfg.seed for r in runners]
         update = (progress or NoProgress()).task(
-            f"{cfg.method} vs {cfg.behavior}, seeds {', '.join(map(str, seeds))}",
+            f"{cfg.method} vs {cfg.world.target.behavior}, seeds {', '.join(map(str, seeds))}",
             total_iters,
             start,
         )
@@ -202,3 +202,10 @@ class SeedGroupRunner:
                     r.save(seed_slice(ts, i))
                 saved = it + 1
         return metrics
+
+
+def make_runner(cfg: TrainRunCfg, env: Environment | None = None) -> TrainRunner | SeedGroupRunner:
+    """A ``TrainRunner`` for one seed, a ``SeedGroupRunner`` for ``--seeds`` > 1."""
+    if cfg.seeds == 1:
+        return TrainRunner(cfg, env)
+    return SeedGroupRunner(seed_cfgs(cfg), env)

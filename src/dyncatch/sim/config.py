@@ -17,8 +17,7 @@ from flax import struct
 from dyncatch.sim.behaviors import TargetCfg
 from dyncatch.sim.fields import static
 from dyncatch.sim.scene_cfg import ROUGH, STAIRS, AvoidCfg, RoomCfg, TerrainCfg, WoodsCfg
-from dyncatch.sim.scenes import get_scene
-from dyncatch.utils.cli_types import SceneName
+from dyncatch.sim.scenes import SceneName, get_scene
 
 
 @struct.dataclass
@@ -231,6 +230,8 @@ class WorldCfg:
         )
 
     def with_behavior(self, behavior: str) -> WorldCfg:
+        """The same world with another target behaviour (``target.behavior``, the one field:
+        ``--behavior`` on the command line), as grids over behaviours ask for it."""
         return self.replace(target=self.target.replace(behavior=behavior))
 
     def with_scene(self, scene: str) -> WorldCfg:

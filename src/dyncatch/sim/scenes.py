@@ -22,6 +22,8 @@ import jax
 
 from dyncatch.sim.layouts import room_checks, room_layout, woods_checks, woods_layout
 from dyncatch.sim.obstacles import Obstacles
+from dyncatch.sim.terrain import terrain_checks
+from dyncatch.utils.cli_types import live_name
 
 if TYPE_CHECKING:
     from dyncatch.sim.config import WorldCfg
@@ -71,7 +73,6 @@ class Scene:
 
 def _woods_validate(terrain_field: str | None) -> Callable[[WorldCfg], list[Check]]:
     def checks(world: WorldCfg) -> list[Check]:
-        from dyncatch.sim.terrain import terrain_checks
 
         out = woods_checks(world)
         if terrain_field is not None:
@@ -131,6 +132,10 @@ SCENES: dict[str, Scene] = {
         _woods("stairs", "woods_stairs", "stairs climbing along world x"),
     )
 }
+
+SceneName = live_name(lambda: tuple(SCENES), "SCENE", aliases=("--scene",))
+"""A key of ``SCENES``; ``--scene`` on the command line (an alias of ``--world.scene.name``
+on every command holding one world)."""
 
 
 def get_scene(name: str) -> Scene:

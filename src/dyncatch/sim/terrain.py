@@ -9,12 +9,17 @@ step. On flat ground (``None``) none of this runs.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import jax
 import jax.numpy as jnp
 
-from dyncatch.sim.config import BaseCfg
 from dyncatch.sim.geometry import rotate
 from dyncatch.sim.scene_cfg import TerrainCfg
+
+if TYPE_CHECKING:
+    # For annotations only: config.py imports scenes.py, which imports this module.
+    from dyncatch.sim.config import BaseCfg
 
 
 def terrain_command(

@@ -16,6 +16,9 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
+from dyncatch.rl.policy import CHECKPOINT
+from dyncatch.utils.tree_io import read_header
+
 METRICS_FILE = "metrics.csv"
 DEFAULT_METRICS = ("eval/success_rate", "reward_per_step")
 """The unbiased success rate of the mean-action policy, and the training reward per step."""
@@ -41,9 +44,6 @@ def read_metrics(run: str | Path) -> dict[str, np.ndarray]:
 
 def run_method(run: str | Path) -> str | None:
     """The method name in a run folder's checkpoint (None without a readable checkpoint)."""
-    from dyncatch.rl.runner import CHECKPOINT
-    from dyncatch.utils.tree_io import read_header
-
     path = Path(run) / CHECKPOINT
     try:
         name = read_header(path).get("method")

@@ -16,9 +16,13 @@ import jax.numpy as jnp
 import numpy as np
 
 from dyncatch.policies.api import as_recurrent
+from dyncatch.policies.blend import blend_weights, collid_scan_m
 from dyncatch.sim.api import Environment, as_env
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.frame import to_world
+from dyncatch.sim.obstacles import line_of_sight
+from dyncatch.sim.scan import robot_clearance_m
+from dyncatch.sim.sensing import in_view
 from dyncatch.sim.state import EnvState, Obs
 
 ExtraFn = Callable[[EnvState, Obs], dict[str, jax.Array]]
@@ -83,10 +87,6 @@ class SceneExtras:
     """A ``policies.blend.BlendCfg``, or None."""
 
     def __call__(self, state: EnvState, obs: Obs) -> dict[str, jax.Array]:
-        from dyncatch.policies.blend import blend_weights, collid_scan_m
-        from dyncatch.sim.obstacles import line_of_sight
-        from dyncatch.sim.scan import robot_clearance_m
-        from dyncatch.sim.sensing import in_view
 
         robot, target = state.robot, state.target
         hidden = ~line_of_sight(state.obstacles, robot.xy_m, target.xy_m)

@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from dyncatch.predictor.config import CollectCfg
+from dyncatch.sim.validate import ConfigError
 
 CHI2_2D_95 = 5.991464547107979
 """The 0.95 quantile of chi^2 with 2 degrees of freedom: a 2-D Gaussian's 95 % region is
@@ -68,7 +69,6 @@ class TrackerDataCfg:
 
 def validate_tracker(cfg: TrackerCfg, train: TrackerTrainCfg, data: TrackerDataCfg) -> None:
     """Raise ConfigError naming the first field that cannot work (call at the boundary)."""
-    from dyncatch.sim.validate import ConfigError
 
     checks = [
         (cfg.memory >= 3, "tracker.memory", "remember at least 3 (a turn rate needs them)"),

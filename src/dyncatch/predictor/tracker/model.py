@@ -26,6 +26,7 @@ from dyncatch.predictor.config import TRACKER
 from dyncatch.predictor.tracker.config import TrackerCfg
 from dyncatch.predictor.tracker.memory import Memory, blank_memory, capture_frame_point, ingest
 from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.env import reset
 from dyncatch.sim.geometry import rotate, world_to_body, wrap_angle
 from dyncatch.sim.state import EnvState
 
@@ -248,6 +249,5 @@ class Tracker:
 
 
 def _dummy_state() -> EnvState:
-    from dyncatch.sim.env import reset
 
     return jax.eval_shape(reset, jax.random.key(0), WorldCfg())

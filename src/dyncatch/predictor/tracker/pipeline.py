@@ -15,6 +15,16 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from dyncatch.predictor import checkpoint
+from dyncatch.predictor.data import check_world
+from dyncatch.predictor.tracker.config import validate_tracker
+from dyncatch.predictor.tracker.data import collect_track
+from dyncatch.predictor.tracker.model import Tracker
+from dyncatch.predictor.tracker.train import (
+    error_by_time_since_sighting,
+    evaluate_tracker,
+    fit_tracker,
+)
 from dyncatch.utils.progress import NoProgress, Progress
 
 if TYPE_CHECKING:
@@ -27,32 +37,21 @@ def train_tracker(cfg: PredictorTrainCfg, progress: Progress | None = None) -> d
     "coverage95", "seconds"}``; ``error_mps`` is the current velocity's error."""
     import jax
 
-    from dyncatch.predictor import checkpoint
-    from dyncatch.predictor.pipeline import check_world
-    from dyncatch.predictor.tracker.config import validate_tracker
-    from dyncatch.predictor.tracker.data import collect_track
-    from dyncatch.predictor.tracker.model import Tracker
-    from dyncatch.predictor.tracker.train import (
-        error_by_time_since_sighting,
-        evaluate_tracker,
-        fit_tracker,
-    )
-
     progress = progress or NoProgress()
     validate_tracker(cfg.tracker, cfg.tracker_train, cfg.tracker_data)
     collect_cfg = cfg.tracker_data.collect
-    check_world(cfg.world, [cfg.behavior], [cfg.steps], collect_cfg)
-    world = cfg.world.with_behavior(cfg.behavior)
+    world = cfg.world
+    check_world(world, [world.target.behavior], [cfg.steps], collect_cfg)
     tracker = Tracker.for_world(cfg.tracker, world)
     k_data, k_eval, k_fit = jax.random.split(jax.random.key(cfg.seed), 3)
     cfg.out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    update = progress.task(f"collecting ({cfg.behavior}, tracker)", cfg.steps)
+    update = progress.task(f"collecting ({world.target.behavior}, tracker)", cfg.steps)
     every = cfg.tracker_data.sample_every_steps
     data, used = collect_track(k_data, world, collect_cfg, tracker, cfg.steps, every, update)
     held_out, _ = collect_track(k_eval, world, collect_cfg, tracker, cfg.eval_steps)
     train = cfg.tracker_train
-    update = progress.task(f"training ({cfg.behavior}, tracker)", train.updates)
+    update = progress.task(f"training ({world.target.behavior}, tracker)", train.updates)
     with (cfg.out / "loss.csv").open("w") as log:
         log.write("update,nll\n")
 
@@ -64,9 +63,9 @@ def train_tracker(cfg: PredictorTrainCfg, progress: Progress | None = None) -> d
         params, _ = fit_tracker(tracker, train, data, n, k_fit, on_log)
     scores = evaluate_tracker(tracker, params, held_out)
     bins = error_by_time_since_sighting(tracker, params, held_out)
-    write_error_vs_time(bins, cfg.out, f"{cfg.behavior}, held-out {cfg.eval_steps} steps")
+    write_error_vs_time(bins, cfg.out, f"{world.target.behavior}, held-out {cfg.eval_steps} steps")
     metrics = {
-        "behavior": cfg.behavior,
+        "behavior": world.target.behavior,
         "kind": "tracker",
         "budget_steps": used,
         "train_samples": n,

@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 from contextlib import contextmanager
 
-from dyncatch.sim.behaviors.base import Behavior, NoState, TargetBodyCfg
+from dyncatch.sim.behaviors.base import BEHAVIORS, Behavior, BehaviorName, NoState, TargetBodyCfg
 from dyncatch.sim.behaviors.bounce import BOUNCE
 from dyncatch.sim.behaviors.circle import CIRCLE, CircleCfg, CircleState
 from dyncatch.sim.behaviors.compose import compose_target_cfg, missing_fields
@@ -22,12 +22,14 @@ from dyncatch.sim.behaviors.random_reactive import (
 )
 from dyncatch.sim.behaviors.reactive import REACTIVE, ReactiveCfg
 
-BEHAVIORS: dict[str, Behavior] = {
-    "circle": CIRCLE,
-    "bounce": BOUNCE,
-    "reactive": REACTIVE,
-    "random_reactive": RANDOM_REACTIVE,
-}
+BEHAVIORS.update(
+    {
+        "circle": CIRCLE,
+        "bounce": BOUNCE,
+        "reactive": REACTIVE,
+        "random_reactive": RANDOM_REACTIVE,
+    }
+)
 
 TargetCfg = compose_target_cfg(
     BEHAVIORS.values(), doc="The planar target body and its behaviour parameters."
@@ -87,6 +89,7 @@ def registered_behavior(name: str, behavior: Behavior, replace: bool = False) ->
 __all__ = [
     "BEHAVIORS",
     "Behavior",
+    "BehaviorName",
     "CircleCfg",
     "CircleState",
     "NoState",

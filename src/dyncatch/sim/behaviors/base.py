@@ -5,25 +5,35 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import jax
 import jax.numpy as jnp
+import tyro
 from flax import struct
 
 from dyncatch.sim.fields import static
 from dyncatch.sim.state import RobotState, TargetState
+from dyncatch.utils.cli_types import live_name
 
 if TYPE_CHECKING:
     from dyncatch.sim.config import WorldCfg
+
+
+BEHAVIORS: dict[str, Behavior] = {}
+"""Target behaviours by name, filled in ``dyncatch.sim.behaviors`` (import it from there)."""
+
+BehaviorName = live_name(lambda: tuple(BEHAVIORS), "BEHAVIOR")
+"""A key of ``BEHAVIORS``, read when the command line is parsed."""
 
 
 @struct.dataclass
 class TargetBodyCfg:
     """The planar target body, whatever its behaviour."""
 
-    behavior: str = static("reactive")
-    """Behaviour, a key of ``dyncatch.sim.behaviors.BEHAVIORS``."""
+    behavior: Annotated[BehaviorName, tyro.conf.arg(aliases=("--behavior",))] = static("reactive")
+    """Behaviour, a key of ``dyncatch.sim.behaviors.BEHAVIORS`` (the library's one default);
+    ``--behavior`` on every command."""
     speed_min_mps: float = 0.0
     """Lower end of the per-episode speed cap (paper V-B: caps drawn within 1.8 m/s in
     training; the ``narrow_speeds`` reading restores the first slice's 0.8)."""

@@ -1,9 +1,13 @@
-"""A policy by name: a baseline of the registry, or a run folder written by training."""
+"""A policy by name: a baseline of the registry, or a run folder written by training (rl, not
+evaluation: it loads runs, and evaluation sits below rl)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
+from dyncatch.policies.registry import BASELINES
+from dyncatch.rl.methods import METHODS
+from dyncatch.rl.policy import load_run
 from dyncatch.sim.config import WorldCfg
 
 
@@ -13,8 +17,6 @@ def resolve_policy(target: str, world: WorldCfg, as_method=None, predictor=None)
     A baseline is built for ``world``; a run is loaded with its own training world (see
     ``dyncatch.rl.policy.load_run``; ``as_method`` and ``predictor`` are passed to it).
     """
-    from dyncatch.policies.registry import BASELINES
-    from dyncatch.rl.methods import METHODS
 
     if target in BASELINES:
         if as_method is not None:
@@ -30,7 +32,6 @@ def resolve_policy(target: str, world: WorldCfg, as_method=None, predictor=None)
             f"unknown method or run {target!r}: baselines are {', '.join(BASELINES)}; "
             "a learned method is evaluated from its run folder"
         )
-    from dyncatch.rl.policy import load_run
 
     run = load_run(target, as_method, predictor)
     return run.policy, run.method, run.world
