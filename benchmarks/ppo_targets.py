@@ -31,7 +31,7 @@ from dyncatch.rl.resolve import resolve_policy
 from dyncatch.rl.runner import TrainRunCfg, TrainRunner
 from dyncatch.sim.config import WorldCfg
 
-BEHAVIOR = "reactive"
+WORLD = WorldCfg().with_behavior("reactive")
 
 
 def predictor_for(out: Path, method: str, steps: int) -> Path | None:
@@ -41,7 +41,7 @@ def predictor_for(out: Path, method: str, steps: int) -> Path | None:
     d = out / f"predictor_{kind}"
     path = d / "predictor.safetensors"
     if not (d / "metrics.json").exists():
-        train_predictor(PredictorTrainCfg(behavior=BEHAVIOR, kind=kind, steps=steps, out=d))
+        train_predictor(PredictorTrainCfg(kind=kind, steps=steps, out=d, world=WORLD))
     return path
 
 
@@ -50,7 +50,7 @@ def train(out: Path, method: str, args) -> dict:
     if not (d / "done.json").exists():
         cfg = TrainRunCfg(
             method=method,
-            behavior=BEHAVIOR,
+            world=WORLD,
             total_steps=args.total_steps,
             seed=args.seed,
             out=d,

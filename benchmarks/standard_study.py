@@ -25,7 +25,8 @@ from pathlib import Path
 import numpy as np
 
 from dyncatch.cli.main import main, parse
-from dyncatch.reproduce.aggregate import gap, t95, time_gap
+from dyncatch.evaluation.intervals import t_quantile
+from dyncatch.reproduce.aggregate import gap, time_gap
 from dyncatch.reproduce.report import checks_markdown
 from dyncatch.reproduce.stages import estimate_s
 
@@ -58,7 +59,7 @@ def half_gap(st: dict, sp: dict, gt: dict) -> dict:
         return {"difference": d, "ci95": None, "verdict": "one seed: no interval"}
     w = (1.0, 0.25, 0.25)
     var = sum(wi * np.var(g, ddof=1) / len(g) for wi, g in zip(w, groups, strict=True))
-    half = t95(min(len(g) for g in groups) - 1) * math.sqrt(var)
+    half = t_quantile(min(len(g) for g in groups) - 1) * math.sqrt(var)
     lo, hi = d - half, d + half
     verdict = (
         "more than half closed"

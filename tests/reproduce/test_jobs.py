@@ -32,7 +32,7 @@ def _finish(out, behavior, method, seed):
 
 def _seeds(job: TrainJob) -> tuple:
     first = job.runs[0]
-    return first.behavior, first.method, tuple(c.seed for c in job.runs)
+    return first.world.target.behavior, first.method, tuple(c.seed for c in job.runs)
 
 
 def test_unfinished_seeds_of_a_method_are_one_group(tmp_path):

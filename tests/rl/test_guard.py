@@ -27,14 +27,13 @@ def test_non_finite_parts_names_parameters_and_metrics():
 def test_training_stops_at_the_first_nan_and_keeps_the_last_good_checkpoint(tmp_path):
     cfg = TrainRunCfg(
         method="rl",
-        behavior="bounce",
         total_steps=5 * PPO.batch_size,
         checkpoint_every=1,
         eval_every=0,
         logger=("csv",),
         out=tmp_path,
         ppo=PPO,
-        world=WorldCfg(),
+        world=WorldCfg().with_behavior("bounce"),
     )
     runner = TrainRunner(cfg)
     iterate = runner._iterate

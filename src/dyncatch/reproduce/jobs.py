@@ -133,7 +133,7 @@ class PredictorJob(Job):
 
     @property
     def name(self) -> str:
-        return f"predictor {self.cfg.kind} on {self.cfg.behavior}"
+        return f"predictor {self.cfg.kind} on {self.cfg.world.target.behavior}"
 
     def run(self, progress=None) -> None:
         if not predictor_done(self.cfg.out):
@@ -182,7 +182,7 @@ class TrainJob(Job):
     def name(self) -> str:
         first, seeds = self.runs[0], [c.seed for c in self.runs]
         plural = "s" * (len(seeds) > 1)
-        return f"train {first.method} on {first.behavior}, seed{plural} " + ", ".join(
+        return f"train {first.method} on {first.world.target.behavior}, seed{plural} " + ", ".join(
             map(str, seeds)
         )
 

@@ -22,6 +22,8 @@ import numpy as np
 from safetensors import SafetensorError
 from safetensors.numpy import load_file, save_file
 
+from dyncatch.utils.files import honour_umask
+
 _HEADER_KEY = "dyncatch_header"
 DIGEST_KEY = "dyncatch_sha256"
 """The metadata key of the tensors' checksum (``tensor_digest``)."""
@@ -50,8 +52,6 @@ def digest_ok(metadata: dict, arrays: dict[str, np.ndarray]) -> bool:
 def write_atomic_safetensors(path: Path, arrays: dict[str, np.ndarray], metadata: dict) -> Path:
     """``arrays`` to ``path`` through a temporary file and ``os.replace``, with ``metadata``
     and the tensors' checksum; the file gets the mode a plain ``open`` would (umask)."""
-    from dyncatch.utils.files import honour_umask
-
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     os.close(fd)
