@@ -82,7 +82,7 @@ def evaluate(out: Path, policy: str, episodes: int) -> list[dict]:
         target = str(out / policy) if (out / policy).exists() else policy
         pol, _, trained_world = resolve_policy(target, WorldCfg())
         world = trained_world or WorldCfg()
-        rows = evaluate_speeds(pol, world, BEHAVIOR, (1.6, 1.8), episodes, 0, policy)
+        rows = evaluate_speeds(pol, world, "reactive", (1.6, 1.8), episodes, 0, policy)
         write_json(path, rows)
     return json.loads(path.read_text())
 
