@@ -19,8 +19,8 @@ import jax
 import numpy as np
 import tyro
 
+from dyncatch.evaluation.backends import run_fullbody_episodes
 from dyncatch.evaluation.resolve import resolve_policy
-from dyncatch.fullbody.catch import run_fullbody_episodes
 from dyncatch.fullbody.config import FullBodyCfg
 from dyncatch.sim.config import WorldCfg
 from dyncatch.utils.jax_setup import setup_jax

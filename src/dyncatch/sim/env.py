@@ -183,8 +183,41 @@ def reset(key: jax.Array, cfg: WorldCfg) -> EnvState:
     return recentre(state)
 
 
+def turn_target(
+    target: TargetState, robot: RobotState, obstacles, key: jax.Array, cfg: WorldCfg
+) -> TargetState:
+    """The target at a step's start (shared with other physics backends,
+    ``dyncatch.fullbody.catch``): its behaviour picks a heading from ``robot`` (the robot as
+    the target sees it) with ``key``, turned away from ``obstacles`` (None: none) unless it
+    reflects off them, and the body steers toward it."""
+    behavior = get_behavior(cfg.target.behavior)
+    heading, behavior_state = behavior.desired_heading(target, robot, cfg, key)
+    if obstacles is not None and not behavior.reflects_off_walls:
+        heading = free_heading(
+            _flee_obstacles(obstacles, target.xy_m),
+            target.xy_m,
+            heading,
+            cfg.target.radius_m,
+            cfg.avoid.lookahead_m,
+            cfg.avoid.directions,
+        )
+    return steer(
+        target.replace(behavior_state=behavior_state), heading, cfg.target, cfg.episode.dt_s
+    )
+
+
+def move_target(
+    target: TargetState, origin_xy_m: jax.Array, cfg: WorldCfg, dt_s, obstacles=None
+) -> TargetState:
+    """The target over one physics sub-step of ``dt_s``, met by the scene's square and stopped
+    by ``obstacles`` (shared with other physics backends, ``dyncatch.fullbody.catch``)."""
+    reflect = get_behavior(cfg.target.behavior).reflects_off_walls
+    walls = get_scene(cfg.scene.name).walls
+    return move(target, cfg.target, cfg.arena, origin_xy_m, dt_s, reflect, walls, obstacles)
+
+
 def _bodies_substep(
-    robot, target, command, origin, cfg: WorldCfg, dt_s, reflect, robot_obstacles, target_obstacles
+    robot, target, command, origin, cfg: WorldCfg, dt_s, robot_obstacles, target_obstacles
 ):
     """The base and the target over one physics sub-step, each stopped by its own obstacles
     (``_reachable_obstacles``); neither depends on the arm."""
@@ -193,8 +226,7 @@ def _bodies_substep(
     robot = base_substep(
         robot, command, cfg.base, cfg.arena, origin, dt_s, walls, robot_obstacles, terrain
     )
-    target = move(target, cfg.target, cfg.arena, origin, dt_s, reflect, walls, target_obstacles)
-    return robot, target
+    return robot, move_target(target, origin, cfg, dt_s, target_obstacles)
 
 
 def _reachable_obstacles(obstacles, robot_xy, target_xy):
@@ -296,7 +328,6 @@ def step(state: EnvState, action: jax.Array, cfg: WorldCfg):
     ``reward/<name>``, ``success``, ``terminated``, ``truncated``, ``distance_m`` and
     ``catch_error_m`` (the smallest catch-point error over the step's sub-steps).
     """
-    behavior = get_behavior(cfg.target.behavior)
     scene = get_scene(cfg.scene.name)
     obstacles = obstacles_in_play(state, cfg)
     draws = step_draws(state.key)
@@ -306,17 +337,7 @@ def step(state: EnvState, action: jax.Array, cfg: WorldCfg):
 
     terrain = None if scene.terrain is None else scene.terrain(cfg)
     robot = add_gait_noise(state.robot, draws.gait_noise, cfg.base, terrain)
-    heading, behavior_state = behavior.desired_heading(state.target, robot, cfg, draws.behavior_key)
-    if obstacles is not None and not behavior.reflects_off_walls:
-        heading = free_heading(
-            _flee_obstacles(obstacles, state.target.xy_m),
-            state.target.xy_m,
-            heading,
-            cfg.target.radius_m,
-            cfg.avoid.lookahead_m,
-            cfg.avoid.directions,
-        )
-    target = steer(state.target.replace(behavior_state=behavior_state), heading, cfg.target, dt_s)
+    target = turn_target(state.target, robot, obstacles, draws.behavior_key, cfg)
 
     # The bodies move first (neither depends on the arm), then the arm follows their poses:
     # the catch is checked at every sub-step (200 Hz), before each arm update and at the end.
@@ -339,7 +360,6 @@ def step(state: EnvState, action: jax.Array, cfg: WorldCfg):
             state.origin_xy_m,
             cfg,
             dt_s / n_sub,
-            behavior.reflects_off_walls,
             robot_obstacles,
             target_obstacles,
         )
