@@ -3,7 +3,8 @@
 Every backend is an environment (the protocol of ``sim.api``) played by the one episode
 loop, ``evaluation.episodes.run_episodes``; an entry says how to open it over the world of
 the evaluation. The same key plays the same episodes on every backend, so their rows compare
-episode for episode.
+episode for episode. Importing ``fullbody.catch`` imports no MuJoCo (an optional
+dependency, the fullbody extra): ``fullbody.model`` imports it where a full body is built.
 """
 
 from __future__ import annotations
