@@ -7,7 +7,7 @@ JAX backend's episode loop (``evaluation.episodes.run_episodes``). One 50 Hz ste
 
 1. **Target (JAX).** ``plan_target`` splits the state's key as ``sim.env.step`` does, turns
    the target from the measured robot (``sim.env.turn_target``) and moves it through the
-   step's sub-steps (``sim.env.move_target``): its ``n_sub + 1`` positions.
+   step's sub-steps (``sim.target.move``): its ``n_sub + 1`` positions.
 2. **Robot (MuJoCo, through ``jax.experimental.io_callback``).** The step's sub-steps are
    control periods of the episode's full body (4 x 200 Hz): the clipped command goes to the
    trot; the arm's goal, the target's centre ``catch_offset_m`` up (as ``sim.arm`` aims),
@@ -50,12 +50,14 @@ from dyncatch.fullbody.gait import yaw_of
 from dyncatch.fullbody.model import build_model
 from dyncatch.sim.api import Environment, JaxCatchEnv, Spec, as_env
 from dyncatch.sim.base import clip_command
+from dyncatch.sim.behaviors import get_behavior
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.draws import step_draws
-from dyncatch.sim.env import finish_step, move_target, observe, turn_target
+from dyncatch.sim.env import finish_step, observe, turn_target
 from dyncatch.sim.env import reset as sim_reset
 from dyncatch.sim.scenes import get_scene
 from dyncatch.sim.state import EnvState, Obs
+from dyncatch.sim.target import move
 
 
 def check_world(world: WorldCfg, fullbody: FullBodyCfg) -> None:
@@ -82,10 +84,13 @@ def plan_target(state: EnvState, action: jax.Array, cfg: WorldCfg):
     noise) and no obstacles (the full body runs on the open plane only)."""
     draws = step_draws(state.key)
     n_sub = cfg.episode.physics_substeps
+    reflect = get_behavior(cfg.target.behavior).reflects_off_walls
+    walls = get_scene(cfg.scene.name).walls
     target = turn_target(state.target, state.robot, None, draws.behavior_key, cfg)
     xys = [target.xy_m]
     for _ in range(n_sub):
-        target = move_target(target, state.origin_xy_m, cfg, cfg.episode.dt_s / n_sub)
+        dt_s = cfg.episode.dt_s / n_sub
+        target = move(target, cfg.target, cfg.arena, state.origin_xy_m, dt_s, reflect, walls)
         xys.append(target.xy_m)
     return clip_command(action, cfg.base), target, jnp.stack(xys), draws.next_key, draws.sense_noise
 

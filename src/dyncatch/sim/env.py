@@ -206,18 +206,8 @@ def turn_target(
     )
 
 
-def move_target(
-    target: TargetState, origin_xy_m: jax.Array, cfg: WorldCfg, dt_s, obstacles=None
-) -> TargetState:
-    """The target over one physics sub-step of ``dt_s``, met by the scene's square and stopped
-    by ``obstacles`` (shared with other physics backends, ``dyncatch.fullbody.catch``)."""
-    reflect = get_behavior(cfg.target.behavior).reflects_off_walls
-    walls = get_scene(cfg.scene.name).walls
-    return move(target, cfg.target, cfg.arena, origin_xy_m, dt_s, reflect, walls, obstacles)
-
-
 def _bodies_substep(
-    robot, target, command, origin, cfg: WorldCfg, dt_s, robot_obstacles, target_obstacles
+    robot, target, command, origin, cfg: WorldCfg, dt_s, reflect, robot_obstacles, target_obstacles
 ):
     """The base and the target over one physics sub-step, each stopped by its own obstacles
     (``_reachable_obstacles``); neither depends on the arm."""
@@ -226,7 +216,8 @@ def _bodies_substep(
     robot = base_substep(
         robot, command, cfg.base, cfg.arena, origin, dt_s, walls, robot_obstacles, terrain
     )
-    return robot, move_target(target, origin, cfg, dt_s, target_obstacles)
+    target = move(target, cfg.target, cfg.arena, origin, dt_s, reflect, walls, target_obstacles)
+    return robot, target
 
 
 def _reachable_obstacles(obstacles, robot_xy, target_xy):
@@ -328,6 +319,7 @@ def step(state: EnvState, action: jax.Array, cfg: WorldCfg):
     ``reward/<name>``, ``success``, ``terminated``, ``truncated``, ``distance_m`` and
     ``catch_error_m`` (the smallest catch-point error over the step's sub-steps).
     """
+    behavior = get_behavior(cfg.target.behavior)
     scene = get_scene(cfg.scene.name)
     obstacles = obstacles_in_play(state, cfg)
     draws = step_draws(state.key)
@@ -360,6 +352,7 @@ def step(state: EnvState, action: jax.Array, cfg: WorldCfg):
             state.origin_xy_m,
             cfg,
             dt_s / n_sub,
+            behavior.reflects_off_walls,
             robot_obstacles,
             target_obstacles,
         )
