@@ -190,13 +190,13 @@ class FullBodies:
         2) (in the state's frame, whose origin is ``origin_xy_m``), unless its episode has
         ended or it has fallen. Returns the measured robot (``RobotState``'s fields, in the
         state's frame), the smallest catch-point error and whether it has fallen."""
-        i, env = int(i), self.envs[int(i)]
+        # The arguments come as arrays of JAX: in float64 numpy, as the bodies compute.
+        i, env, ended = int(i), self.envs[int(i)], bool(ended)
         origin = np.asarray(origin_xy_m, float)
+        target_xy_m = np.asarray(target_xy_m, float) + origin
         best = np.inf
         if not (ended or self.fallen[i]):
-            best = _physics(
-                env, i, np.asarray(command, float), target_xy_m + origin, reach, self.probe
-            )
+            best = _physics(env, i, np.asarray(command, float), target_xy_m, reach, self.probe)
             self.fallen[i] = env.fallen()
             self.env_steps += 1
         if i == self.record and not ended:
