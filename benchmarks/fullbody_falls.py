@@ -23,8 +23,8 @@ import jax
 import numpy as np
 import tyro
 
+from dyncatch.evaluation.backends import run_fullbody_episodes
 from dyncatch.evaluation.grid import EVAL_STREAM
-from dyncatch.fullbody.catch import run_fullbody_episodes
 from dyncatch.fullbody.config import FullBodyCfg
 from dyncatch.policies.registry import BASELINES
 from dyncatch.rl.resolve import resolve_policy

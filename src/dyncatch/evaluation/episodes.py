@@ -30,6 +30,7 @@ def _run_impl(
     num_episodes: int,
     num_steps: int,
     contact_tol_m: float | None = None,
+    events: tuple[str, ...] = (),
 ):
     k_reset, k_act = jax.random.split(key)
     state = jax.vmap(env.reset)(jax.random.split(k_reset, num_episodes))
@@ -41,7 +42,7 @@ def _run_impl(
     count = contact_tol_m is not None
 
     def body(carry, t):
-        state, obs, pcarry, done, success, steps, ret, touching, contacts = carry
+        state, obs, pcarry, done, success, steps, ret, touching, contacts, happened = carry
         keys = jax.random.split(jax.random.fold_in(k_act, t), num_episodes)
         pcarry, action = vpolicy(pcarry, state, obs, keys)
         state, obs, reward, now_done, info = vstep(state, action)
@@ -51,24 +52,26 @@ def _run_impl(
         steps = steps + (live & ~success).astype(jnp.int32)
         success = success | (live & info["success"])
         ret = ret + jnp.where(live, reward, 0.0)
+        happened = {k: v | (live & info[k]) for k, v in happened.items()}
         if count:  # a contact is a step that begins a touch (not one that holds it)
             now = _touching(state, env, contact_tol_m)
             contacts = contacts + (live & now & ~touching).astype(jnp.int32)
             touching = now
         carry = (state, obs, pcarry, done | now_done, success, steps, ret, touching, contacts)
-        return carry, None
+        return (*carry, happened), None
 
     zeros_b = jnp.zeros(num_episodes, bool)
     pcarry = jax.vmap(pol.init_carry)(state, obs)
     ints, floats = jnp.zeros(num_episodes, jnp.int32), jnp.zeros(num_episodes)
     touching = _touching(state, env, contact_tol_m) if count else zeros_b
-    init = (state, obs, pcarry, zeros_b, zeros_b, ints, floats, touching, ints)
+    happened = {k: zeros_b for k in events}
+    init = (state, obs, pcarry, zeros_b, zeros_b, ints, floats, touching, ints, happened)
     final, _ = jax.lax.scan(body, init, jnp.arange(num_steps))
-    success, steps, ret, _, contacts = final[4:]
-    return success, steps, ret, contacts
+    success, steps, ret, _, contacts, happened = final[4:]
+    return success, steps, ret, contacts, happened
 
 
-_STATIC = ("num_episodes", "num_steps", "contact_tol_m")
+_STATIC = ("num_episodes", "num_steps", "contact_tol_m", "events")
 _run_static = jax.jit(_run_impl, static_argnames=("policy", *_STATIC))
 """Hashable policies (scripted baselines) are compile-time constants."""
 _run_pytree = jax.jit(_run_impl, static_argnames=_STATIC)
@@ -76,9 +79,9 @@ _run_pytree = jax.jit(_run_impl, static_argnames=_STATIC)
 checkpoint of one architecture reuses one compilation."""
 
 
-def _run(policy, key, env: Environment, num_episodes: int, num_steps: int, contact_tol_m):
+def _run(policy, key, env: Environment, num_episodes: int, num_steps: int, contact_tol_m, events):
     run = _run_pytree if getattr(policy, "is_pytree_policy", False) else _run_static
-    return run(policy, key, env, num_episodes, num_steps, contact_tol_m)
+    return run(policy, key, env, num_episodes, num_steps, contact_tol_m, events)
 
 
 def run_episodes(
@@ -87,6 +90,7 @@ def run_episodes(
     env: Environment | WorldCfg,
     num_episodes: int,
     contact_tol_m: float | None = None,
+    events: tuple[str, ...] = (),
 ) -> dict[str, jax.Array]:
     """Play ``num_episodes`` episodes of a policy (see ``dyncatch.policies.api``) in ``env``
     (a backend of ``dyncatch.sim.api``; a ``WorldCfg`` means the JAX world).
@@ -96,17 +100,21 @@ def run_episodes(
     ``contacts`` (N,) int: the collisions of each episode, counted as the steps on which
     the robot's footprint comes within ``contact_tol_m`` of a wall or obstacle
     (``sim.scan.robot_clearance_m``) after a step on which it was not (a push-out leaves
-    it at 0: a slide along an obstacle is one contact, however long).
+    it at 0: a slide along an obstacle is one contact, however long). For each name in
+    ``events``, a boolean key of the backend's step ``info`` (``fell`` on the full body),
+    (N,) bool: whether it was true after one of the episode's steps.
     """
     env = as_env(env)
     num_steps = int(env.world.episode.max_steps)
-    success, steps, ret, contacts = _run(policy, key, env, num_episodes, num_steps, contact_tol_m)
+    success, steps, ret, contacts, happened = _run(
+        policy, key, env, num_episodes, num_steps, contact_tol_m, tuple(events)
+    )
     dt = env.world.episode.dt_s
     catch_time = jnp.where(success, steps * dt, num_steps * dt)
     out = {"success": success, "catch_time_s": catch_time, "return": ret}
     if contact_tol_m is not None:
         out["contacts"] = contacts
-    return out
+    return {**out, **happened}
 
 
 def _run_speeds_impl(policy, keys, env, speeds, num_episodes, num_steps, contact_tol_m=None):
@@ -117,8 +125,9 @@ def _run_speeds_impl(policy, keys, env, speeds, num_episodes, num_steps, contact
     return jax.vmap(one)(keys, speeds)
 
 
-_speeds_static = jax.jit(_run_speeds_impl, static_argnames=("policy", *_STATIC))
-_speeds_pytree = jax.jit(_run_speeds_impl, static_argnames=_STATIC)
+_SPEEDS_STATIC = ("num_episodes", "num_steps", "contact_tol_m")
+_speeds_static = jax.jit(_run_speeds_impl, static_argnames=("policy", *_SPEEDS_STATIC))
+_speeds_pytree = jax.jit(_run_speeds_impl, static_argnames=_SPEEDS_STATIC)
 
 
 def run_episodes_at_speeds(
@@ -133,7 +142,7 @@ def run_episodes_at_speeds(
     num_steps = int(env.world.episode.max_steps)
     speeds = jnp.asarray(speeds_mps, jnp.float32)
     run = _speeds_pytree if getattr(policy, "is_pytree_policy", False) else _speeds_static
-    success, steps, ret, _ = run(policy, keys, env, speeds, num_episodes, num_steps, None)
+    success, steps, ret, *_ = run(policy, keys, env, speeds, num_episodes, num_steps, None)
     dt = env.world.episode.dt_s
     catch_time = jnp.where(success, steps * dt, num_steps * dt)
     return {"success": success, "catch_time_s": catch_time, "return": ret}

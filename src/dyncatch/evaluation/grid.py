@@ -45,7 +45,7 @@ def evaluate_speeds(
     rows = []
     for speed, outcome in zip(speeds_mps, outcomes, strict=True):
         s = summarize(outcome)
-        extra = {f"{k}_rate": float(np.mean(outcome[k])) for k in entry.extra_keys}
+        extra = {f"{k}_rate": float(np.mean(outcome[k])) for k in entry.events}
         rows.append(
             {
                 "backend": backend,

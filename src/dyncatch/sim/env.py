@@ -183,6 +183,29 @@ def reset(key: jax.Array, cfg: WorldCfg) -> EnvState:
     return recentre(state)
 
 
+def turn_target(
+    target: TargetState, robot: RobotState, obstacles, key: jax.Array, cfg: WorldCfg
+) -> TargetState:
+    """The target at a step's start (shared with other physics backends,
+    ``dyncatch.fullbody.catch``): its behaviour picks a heading from ``robot`` (the robot as
+    the target sees it) with ``key``, turned away from ``obstacles`` (None: none) unless it
+    reflects off them, and the body steers toward it."""
+    behavior = get_behavior(cfg.target.behavior)
+    heading, behavior_state = behavior.desired_heading(target, robot, cfg, key)
+    if obstacles is not None and not behavior.reflects_off_walls:
+        heading = free_heading(
+            _flee_obstacles(obstacles, target.xy_m),
+            target.xy_m,
+            heading,
+            cfg.target.radius_m,
+            cfg.avoid.lookahead_m,
+            cfg.avoid.directions,
+        )
+    return steer(
+        target.replace(behavior_state=behavior_state), heading, cfg.target, cfg.episode.dt_s
+    )
+
+
 def _bodies_substep(
     robot, target, command, origin, cfg: WorldCfg, dt_s, reflect, robot_obstacles, target_obstacles
 ):
@@ -306,17 +329,7 @@ def step(state: EnvState, action: jax.Array, cfg: WorldCfg):
 
     terrain = None if scene.terrain is None else scene.terrain(cfg)
     robot = add_gait_noise(state.robot, draws.gait_noise, cfg.base, terrain)
-    heading, behavior_state = behavior.desired_heading(state.target, robot, cfg, draws.behavior_key)
-    if obstacles is not None and not behavior.reflects_off_walls:
-        heading = free_heading(
-            _flee_obstacles(obstacles, state.target.xy_m),
-            state.target.xy_m,
-            heading,
-            cfg.target.radius_m,
-            cfg.avoid.lookahead_m,
-            cfg.avoid.directions,
-        )
-    target = steer(state.target.replace(behavior_state=behavior_state), heading, cfg.target, dt_s)
+    target = turn_target(state.target, robot, obstacles, draws.behavior_key, cfg)
 
     # The bodies move first (neither depends on the arm), then the arm follows their poses:
     # the catch is checked at every sub-step (200 Hz), before each arm update and at the end.
