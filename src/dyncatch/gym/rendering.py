@@ -13,7 +13,7 @@ import jax
 import numpy as np
 
 from dyncatch.sim.config import WorldCfg
-from dyncatch.sim.frame import to_world
+from dyncatch.sim.frame import to_scene
 from dyncatch.viz.trajectory import state_row
 
 RENDER_MODES = ["rgb_array"]
@@ -94,7 +94,7 @@ class StateFrames:
         """Remember the target position of ``state``: (2,), or (num_envs, 2) for a batch."""
         # Stored positions are relative to the robot (``sim.frame``); the trail is in world
         # coordinates, as the drawn rows are.
-        self._trail.append(np.asarray(to_world(state, state.target.xy_m), np.float64))
+        self._trail.append(np.asarray(to_scene(state, state.target.xy_m), np.float64))
 
     def _draw(self, row: dict, trail: np.ndarray) -> np.ndarray:
         if self._drawer is None:
