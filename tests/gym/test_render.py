@@ -192,3 +192,19 @@ def test_vector_record_video_tiles_the_envs(tmp_path):
     # Same-step auto-reset: the video of episode 0 (the reset frame and steps 1-9) stops
     # before the episode's last frame, as Gymnasium documents; four envs are tiled 2 x 2.
     check_video(path, EPISODE_STEPS, (2 * SIZE_PX, 2 * SIZE_PX))
+
+
+def test_a_step_with_rendering_on_moves_nothing_to_the_host():
+    """``push`` keeps references to the device arrays; a frame's trail is built at render."""
+    from dyncatch.gym.rendering import StateFrames
+    from dyncatch.sim.env import reset
+
+    state = jax.jit(reset)(jax.random.key(0), WorldCfg())
+    frames = StateFrames(WorldCfg(), SIZE_PX)
+    with jax.transfer_guard("disallow"):  # raises on an accelerator; on CPU, the next line
+        frames.start(state)
+        frames.push(state)
+    assert all(isinstance(a, jax.Array) for pair in frames._trail for a in pair)
+    trail = frames._trail_xy()
+    assert trail.shape == (2, 2) and trail.dtype == np.float64
+    np.testing.assert_array_equal(trail[0], np.asarray(state.target.xy_m + state.origin_xy_m))

@@ -1,6 +1,7 @@
 """The Kalman-filter interception baseline."""
 
 import math
+from functools import partial
 
 import jax
 import jax.numpy as jnp
@@ -16,7 +17,9 @@ from dyncatch.policies.intercept import (
     kf_update,
 )
 from dyncatch.policies.registry import BASELINES
+from dyncatch.sim import env as sim_env
 from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.frame import world_position_m
 
 
 def test_interception_time_by_hand():
@@ -66,3 +69,55 @@ def test_interception_beats_pure_pursuit_on_fast_bouncing_targets():
     }
     # Measured 0.89 vs 0.76 over 300 episodes: leading the target pays on straight lines.
     assert rates["intercept"] > rates["pursuit"] + 0.05, rates
+
+
+_FAR_M = 1.0e6  # 1000 km
+
+
+@partial(jax.jit, static_argnames="num_steps")
+def _intercept_episodes(anchor_xy_m: jax.Array, key: jax.Array, world: WorldCfg, num_steps: int):
+    """8 intercept episodes with the scene placed at ``anchor_xy_m``: success (8,) and the
+    state after each step (leaves (T, 8, ...))."""
+    policy = BASELINES["intercept"](world)
+    k_reset, k_act = jax.random.split(key)
+    state = jax.vmap(sim_env.reset, in_axes=(0, None))(jax.random.split(k_reset, 8), world)
+    state = state.replace(anchor_xy_m=state.anchor_xy_m + anchor_xy_m)
+    obs = jax.vmap(sim_env.observe, in_axes=(0, None))(state, world)
+    carry = jax.vmap(policy.init_carry)(state, obs)
+
+    def body(c, t):
+        state, obs, carry, done, success = c
+        keys = jax.random.split(jax.random.fold_in(k_act, t), 8)
+        carry, action = jax.vmap(policy.step)(carry, state, obs, keys)
+        state, obs, _, now_done, info = jax.vmap(sim_env.step, in_axes=(0, 0, None))(
+            state, action, world
+        )
+        success = success | (~done & info["success"])
+        return (state, obs, carry, done | now_done, success), state
+
+    none = jnp.zeros(8, bool)
+    steps = jnp.arange(num_steps)
+    (*_, success), states = jax.lax.scan(body, (state, obs, carry, none, none), steps)
+    return success, states
+
+
+def test_interception_1000_km_out_succeeds_exactly_as_at_the_origin():
+    world = WorldCfg().with_scene("open_plane").with_speed(1.2)
+    key = jax.random.key(3)
+    far_m = jnp.array([_FAR_M, -_FAR_M], jnp.float32)
+    steps = round(world.episode.duration_s * world.episode.control_hz)  # the whole episode
+    success, near = _intercept_episodes(jnp.zeros(2), key, world, steps)
+    success_far, far = _intercept_episodes(far_m, key, world, steps)
+    assert 0 < int(success.sum()) < 8  # a batch that can tell a change apart
+    np.testing.assert_array_equal(success_far, success)
+    # The robot's world position over the episode, far out less the placement, is the one at
+    # the origin to well under 1 mm (bit for bit: the anchor is never rounded into it).
+    world_far = world_position_m(far) - np.array([_FAR_M, -_FAR_M])
+    assert np.abs(world_far - world_position_m(near)).max() < 1e-3
+    # What it replaced: one float32 world position, stepped by the same displacements,
+    # rounds to 1/16 m at 1000 km and drifts by metres within the episode.
+    origins = np.asarray(near.origin_xy_m, np.float64)  # (T, 8, 2)
+    single = np.float32(_FAR_M) + origins[0].astype(np.float32)
+    for d in np.diff(origins, axis=0).astype(np.float32):
+        single = single + d
+    assert np.abs(single.astype(np.float64) - _FAR_M - origins[-1]).max() > 0.1

@@ -10,7 +10,7 @@ import jax.numpy as jnp
 from dyncatch.sim import env
 from dyncatch.sim.base import command_high, command_low
 from dyncatch.sim.config import WorldCfg
-from dyncatch.sim.frame import in_world_frame, recentre
+from dyncatch.sim.frame import in_scene_frame, recentre
 from dyncatch.sim.state import EnvState
 
 
@@ -61,7 +61,7 @@ def place(
 ) -> EnvState:
     """``state`` with the bodies put at the given world positions (m) and headings (rad),
     returned in the robot-centred frame as ``reset`` returns it; ``distance_m`` follows."""
-    s = in_world_frame(state)
+    s = in_scene_frame(state)
     robot, target = s.robot, s.target
     f32 = partial(jnp.asarray, dtype=jnp.float32)
     if robot_xy is not None:

@@ -17,7 +17,7 @@ from dyncatch.sim import env
 from dyncatch.sim.api import JaxCatchEnv, obs_dim
 from dyncatch.sim.base import add_gait_noise, base_substep
 from dyncatch.sim.config import WorldCfg
-from dyncatch.sim.frame import in_world_frame, recentre
+from dyncatch.sim.frame import in_scene_frame, recentre
 from dyncatch.sim.layouts import step_reach_m
 from dyncatch.sim.obstacles import Obstacles, signed_distance
 from dyncatch.sim.scan import robot_clearance_m
@@ -35,7 +35,7 @@ STILL = jnp.zeros(3)
 
 def _withobstacles(state, obstacles_world: Obstacles):
     """``state`` with its obstacles replaced by world-placed ones (robot-centred frame)."""
-    return recentre(in_world_frame(state).replace(obstacles=obstacles_world))
+    return recentre(in_scene_frame(state).replace(obstacles=obstacles_world))
 
 
 def _start(cfg, obstacles_world, **where):

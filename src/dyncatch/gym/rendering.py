@@ -15,7 +15,6 @@ import numpy as np
 from dyncatch.policies.blend import reads_nothing
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.env import observe
-from dyncatch.sim.frame import to_world
 from dyncatch.viz.trajectory import scene_extras, state_row
 
 RENDER_MODES = ["rgb_array"]
@@ -84,7 +83,7 @@ class StateFrames:
             self._row, self._rows = _row_fns(world)
         self.world = world
         self.span = trail_rows(world)
-        self._trail: deque[np.ndarray] = deque(maxlen=self.span + 1)
+        self._trail: deque[tuple[jax.Array, jax.Array]] = deque(maxlen=self.span + 1)
 
     def start(self, state) -> None:
         """A new episode (every environment of a batch) begins with ``state``."""
@@ -93,9 +92,16 @@ class StateFrames:
 
     def push(self, state) -> None:
         """Remember the target position of ``state``: (2,), or (num_envs, 2) for a batch."""
-        # Stored positions are relative to the robot (``sim.frame``); the trail is in world
-        # coordinates, as the drawn rows are.
-        self._trail.append(np.asarray(to_world(state, state.target.xy_m), np.float64))
+        # References to the device arrays only: no computation and no transfer to the host
+        # until a frame is drawn, so a step with rendering on costs what one without does.
+        self._trail.append((state.target.xy_m, state.origin_xy_m))
+
+    def _trail_xy(self) -> np.ndarray:
+        """(K, 2) or (K, num_envs, 2) float64: the remembered target positions in the scene
+        frame, as the drawn rows are (stored positions are relative to the robot,
+        ``sim.frame.to_scene``); the float32 sum is the one the device would round."""
+        pairs = jax.device_get(list(self._trail))
+        return np.stack([(xy + origin).astype(np.float64) for xy, origin in pairs])
 
     def _draw(self, row: dict, trail: np.ndarray) -> np.ndarray:
         if self._drawer is None:
@@ -111,12 +117,12 @@ class StateFrames:
     def frame(self, state) -> np.ndarray:
         """(size_px, size_px, 3) uint8 of one environment's state."""
         row = jax.device_get(self._row(state))
-        return self._draw(row, np.stack(self._trail))
+        return self._draw(row, self._trail_xy())
 
     def frames(self, state) -> tuple[np.ndarray, ...]:
         """One (size_px, size_px, 3) uint8 frame per environment of a batched state."""
         rows = jax.device_get(self._rows(state))
-        trail = np.stack(self._trail)  # (K, num_envs, 2)
+        trail = self._trail_xy()  # (K, num_envs, 2)
         num_envs = len(rows["step"])
         return tuple(
             self._draw({k: v[i] for k, v in rows.items()}, trail[:, i]) for i in range(num_envs)

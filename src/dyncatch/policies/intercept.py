@@ -1,8 +1,9 @@
 """A classical baseline (the paper's Fig. 2, method 1): a constant-velocity Kalman filter
 on the 2 Hz sightings, and a planner that runs for the interception point.
 
-The filter runs in world coordinates: each sighting is the observation's egocentric sighting
-placed by the robot's own odometry pose (``sim.frame.odometry``). It treats x and y alike
+The filter runs in the scene frame: each sighting is the observation's egocentric sighting
+placed by the robot's own odometry pose (``sim.frame.odometry``), which is as exact with the
+scene placed 1000 km out as at the world origin. It treats x and y alike
 (same dynamics and noise), so one 2x2 covariance over
 (position, velocity) serves both axes. A new sighting is recognised by the observation's
 ``time_since_seen_s`` dropping; latency is ignored (it is zero by default). The planner

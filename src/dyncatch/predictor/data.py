@@ -28,7 +28,7 @@ from dyncatch.predictor.config import CollectCfg
 from dyncatch.predictor.features import History, history_from_state
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.env import observe, reset, step
-from dyncatch.sim.frame import to_world
+from dyncatch.sim.frame import to_scene
 from dyncatch.sim.sensing import latency_steps, period_steps
 from dyncatch.sim.validate import validate_world
 
@@ -92,7 +92,7 @@ def episode_samples(key: jax.Array, world: WorldCfg, cfg: CollectCfg, frames: in
         pursue, command = plan
         # World position: the stored one moves with the robot-centred frame every step, so a
         # difference of stored positions would be the velocity relative to the robot.
-        capture_xy = to_world(state, state.target.xy_m)
+        capture_xy = to_scene(state, state.target.xy_m)
         # Frame k is delivered `lag` steps after its capture; with no latency, right now.
         snap = (history_from_state(state), state.sensor.consecutive)
 
@@ -111,7 +111,7 @@ def episode_samples(key: jax.Array, world: WorldCfg, cfg: CollectCfg, frames: in
     first = frame_plan(k_first, (jnp.zeros((), bool), jnp.zeros(3)), world, always)
     init = (reset(k_reset, world), first)
     (state, _), (hist, ok, xy) = jax.lax.scan(frame, init, jnp.arange(frames))
-    xy = jnp.concatenate([xy, to_world(state, state.target.xy_m)[None]])
+    xy = jnp.concatenate([xy, to_scene(state, state.target.xy_m)[None]])
     label = (xy[1:] - xy[:-1]) / (period * world.episode.dt_s)
     return hist, label, ok
 

@@ -178,6 +178,7 @@ def reset(key: jax.Array, cfg: WorldCfg) -> EnvState:
         success=jnp.zeros((), bool),
         distance_m=jnp.linalg.norm(t_xy - robot.xy_m),
         origin_xy_m=jnp.zeros(2),
+        anchor_xy_m=jnp.zeros(2),
         obstacles=no_obstacles() if obstacles is None else obstacles,
     )
     return recentre(state)
@@ -417,6 +418,7 @@ def finish_step(
             success=success,
             distance_m=distance,
             origin_xy_m=state.origin_xy_m,
+            anchor_xy_m=state.anchor_xy_m,
             obstacles=state.obstacles,
         )
     )

@@ -1,14 +1,18 @@
 """The local frame: every stored position is relative to ``EnvState.origin_xy_m``.
 
 After each reset and step the frame is moved to the robot (``recentre``): the robot's xy is
-0, every other position is relative to it, and ``origin_xy_m`` holds the robot's world
-position. Physics, sensing, the catch test and the observations only ever use positions
-relative to the robot, so they are as exact 10 km from the world origin as at it; world-fixed
-features (the walls, the bounce target's square, the circle's centre) are placed in the frame
-by subtracting ``origin_xy_m``; obstacles are stored in the frame and move with it (a periodic
-layout's copies are kept within half a period of the robot). Behaviour states keep
-world-fixed points in fields whose names end in ``xy_m``; ``recentre`` moves them with the
-frame.
+0, every other position is relative to it, and ``origin_xy_m`` holds the robot's position in
+the scene frame. Physics, sensing, the catch test and the observations only ever use
+positions relative to the robot, so they are as exact 10 km from the world origin as at it;
+world-fixed features (the walls, the bounce target's square, the circle's centre) are placed
+in the frame by subtracting ``origin_xy_m``; obstacles are stored in the frame and move with
+it (a periodic layout's copies are kept within half a period of the robot). Behaviour states
+keep world-fixed points in fields whose names end in ``xy_m``; ``recentre`` moves them with
+the frame.
+
+The scene frame sits at ``EnvState.anchor_xy_m`` in the world (0 after reset). Placing an
+episode far out moves the anchor alone, so ``origin_xy_m`` (the odometry) stays as small and
+as exact as at the origin; ``world_position_m`` adds the two on the host in float64.
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ import dataclasses
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from dyncatch.sim.state import EnvState
 
@@ -40,7 +45,7 @@ def shift_xy_fields(tree, d: jax.Array):
 
 def shift(state: EnvState, d_m: jax.Array) -> EnvState:
     """The same state in a frame moved by ``d_m`` (2,): every stored position minus ``d_m``,
-    ``origin_xy_m`` plus it. ``shift(state, -state.origin_xy_m)`` gives world coordinates."""
+    ``origin_xy_m`` plus it. ``shift(state, -state.origin_xy_m)`` gives scene coordinates."""
     robot = state.robot.replace(
         xy_m=state.robot.xy_m - d_m,
         gripper_xyz_m=jnp.concatenate(
@@ -76,18 +81,26 @@ def recentre(state: EnvState) -> EnvState:
     return moved.replace(robot=moved.robot.replace(xy_m=jnp.zeros_like(state.robot.xy_m)))
 
 
-def in_world_frame(state: EnvState) -> EnvState:
-    """The same state with world coordinates stored (``origin_xy_m`` = 0); ``recentre``
-    brings it back. For placing bodies at world positions (tests, scripted starts)."""
+def in_scene_frame(state: EnvState) -> EnvState:
+    """The same state with scene coordinates stored (``origin_xy_m`` = 0); ``recentre``
+    brings it back. For placing bodies at scene positions (tests, scripted starts)."""
     return shift(state, -state.origin_xy_m)
 
 
-def to_world(state: EnvState, xy_m: jax.Array) -> jax.Array:
-    """A stored (local) position, (..., 2), in world coordinates."""
+def to_scene(state: EnvState, xy_m: jax.Array) -> jax.Array:
+    """A stored (local) position, (..., 2), in the scene frame (the world frame moved by
+    ``anchor_xy_m``; the same after reset). Walls and drawings live in this frame."""
     return xy_m + state.origin_xy_m
 
 
 def odometry(state: EnvState) -> tuple[jax.Array, jax.Array]:
-    """The robot's own pose, world xy (2,) and yaw (): what its odometry knows (policies may
-    read it; it says nothing about the target)."""
+    """The robot's own pose in the scene frame, xy (2,) and yaw (): what its odometry knows
+    (policies may read it; it says nothing about the target). Relative to the anchor, it is
+    as exact with the scene 1000 km out as at the world origin."""
     return state.robot.xy_m + state.origin_xy_m, state.robot.yaw_rad
+
+
+def world_position_m(state: EnvState) -> np.ndarray:
+    """The robot's world position, (..., 2) float64 on the host: the anchor plus the frame,
+    each a float32, summed without rounding away the frame's small part."""
+    return np.asarray(state.anchor_xy_m, np.float64) + np.asarray(state.origin_xy_m, np.float64)

@@ -90,9 +90,16 @@ class EnvState:
     distance_m: jax.Array
     """Planar robot-target distance after the last step (for eq. 6), ()."""
     origin_xy_m: jax.Array
-    """World position of the frame every position above is stored in, (2,). After each
-    reset and step the frame is re-centred on the robot (its xy is then 0), so a catch far
-    from the world origin is judged as exactly as one at it."""
+    """Position of the frame every position above is stored in, in the scene frame, (2,).
+    After each reset and step the frame is re-centred on the robot (its xy is then 0), so a
+    catch far from the world origin is judged as exactly as one at it. The scene frame holds
+    the world-fixed features (the walls' square, ``ArenaCfg``) and the robot's odometry."""
+    anchor_xy_m: jax.Array
+    """World position of the scene frame's origin, (2,); 0 after reset, never moved by a step.
+    An episode placed far out moves this alone: the robot's world position is
+    ``anchor_xy_m + origin_xy_m`` (``frame.world_position_m``), two float32 summed exactly on
+    the host, so it keeps the precision it has at the origin (a single float32 would round
+    to 6 cm at 1000 km)."""
     obstacles: Obstacles
     """This episode's obstacles in the same frame (K = 0 where the scene has none; K is
     fixed per scene, so batches stack)."""

@@ -19,7 +19,7 @@ from dyncatch.policies.api import as_recurrent
 from dyncatch.policies.blend import blend_weights, collid_scan_m
 from dyncatch.sim.api import Environment, as_env
 from dyncatch.sim.config import WorldCfg
-from dyncatch.sim.frame import to_world
+from dyncatch.sim.frame import to_scene
 from dyncatch.sim.obstacles import line_of_sight
 from dyncatch.sim.scan import robot_clearance_m
 from dyncatch.sim.sensing import in_view
@@ -56,15 +56,15 @@ def state_row(state: EnvState) -> dict[str, jax.Array]:
     gripper = state.robot.gripper_xyz_m
     return {
         "step": state.step,
-        "robot_xy_m": to_world(state, state.robot.xy_m),
+        "robot_xy_m": to_scene(state, state.robot.xy_m),
         "robot_yaw_rad": state.robot.yaw_rad,
         "robot_speed_mps": jnp.linalg.norm(state.robot.vel_body_mps, axis=-1),
         "gripper_xyz_m": jnp.concatenate(
-            [to_world(state, gripper[..., :2]), gripper[..., 2:]], axis=-1
+            [to_scene(state, gripper[..., :2]), gripper[..., 2:]], axis=-1
         ),
-        "target_xy_m": to_world(state, state.target.xy_m),
+        "target_xy_m": to_scene(state, state.target.xy_m),
         "target_speed_mps": state.target.speed_mps,
-        "obs_xy_m": to_world(state, state.sensor.obs_xy_m),
+        "obs_xy_m": to_scene(state, state.sensor.obs_xy_m),
         "visible": state.sensor.visible,
         "ever_seen": state.sensor.ever_seen,
         "success": state.success,
