@@ -17,7 +17,7 @@ import jax
 from flax import struct
 
 from dyncatch.rl.config import PPOCfg
-from dyncatch.rl.methods import METHODS, MethodObs, get_method
+from dyncatch.rl.methods import GROUND_TRUTH, GROUND_TRUTH_READING, METHODS, MethodObs, get_method
 from dyncatch.rl.networks import ActorCritic
 from dyncatch.rl.normalize import RunningNorm
 from dyncatch.rl.runner import CHECKPOINT, TRAIN_FORMAT
@@ -114,9 +114,22 @@ def load_run(
         from dyncatch.predictor.checkpoint import load_any
 
         pred, pred_params = load_any(pred_path)
-    obs_fn = m.obs_fn(pred, pred_params, evaluation=True)
+    reading = header.get("ground_truth")
+    if reading is None and get_method(trained).velocity_input == GROUND_TRUTH:
+        # Such runs trained with the flag always 1 or, for a while, under the availability
+        # rule: which one is not known, so neither is assumed.
+        raise TreeFileError(
+            f"{path}: a {trained!r} run that does not record its ground-truth reading "
+            "(trained before it was recorded); retrain it with dyncatch train"
+        )
+    reading = reading or GROUND_TRUTH_READING
+    obs_fn = m.obs_fn(pred, pred_params, evaluation=True, ground_truth=reading)
     # The template is the train state of the method it was trained as (same input size).
-    train_fn = get_method(trained).obs_fn(pred, pred_params) if method != trained else obs_fn
+    train_fn = (
+        get_method(trained).obs_fn(pred, pred_params, ground_truth=reading)
+        if method != trained
+        else obs_fn
+    )
     env = JaxCatchEnv(world)
     init, _, net = make_train(env, ppo, train_fn)
     template = jax.eval_shape(init, jax.random.key(0))
