@@ -102,6 +102,15 @@ def load_run(
             f"a {trained!r} run cannot be evaluated as {method!r}"
             + (f"; it can be evaluated as {', '.join(reusers)}" if reusers else "")
         )
+    reading = header.get("ground_truth")
+    if reading is None and get_method(trained).velocity_input == GROUND_TRUTH:
+        # Such runs trained with the flag always 1 or, for a while, under the availability
+        # rule: which one is not known, so neither is assumed.
+        raise TreeFileError(
+            f"{path}: a {trained!r} run that does not record its ground-truth reading "
+            "(trained before it was recorded); retrain it with dyncatch train"
+        )
+    reading = reading or GROUND_TRUTH_READING
     ppo = from_dict(PPOCfg, header["ppo"], "ppo")
     world = from_dict(WorldCfg, header["world"], "world")
     pred = pred_params = None
@@ -114,15 +123,6 @@ def load_run(
         from dyncatch.predictor.checkpoint import load_any
 
         pred, pred_params = load_any(pred_path)
-    reading = header.get("ground_truth")
-    if reading is None and get_method(trained).velocity_input == GROUND_TRUTH:
-        # Such runs trained with the flag always 1 or, for a while, under the availability
-        # rule: which one is not known, so neither is assumed.
-        raise TreeFileError(
-            f"{path}: a {trained!r} run that does not record its ground-truth reading "
-            "(trained before it was recorded); retrain it with dyncatch train"
-        )
-    reading = reading or GROUND_TRUTH_READING
     obs_fn = m.obs_fn(pred, pred_params, evaluation=True, ground_truth=reading)
     # The template is the train state of the method it was trained as (same input size).
     train_fn = (
