@@ -25,7 +25,8 @@ from pathlib import Path
 import numpy as np
 
 from dyncatch.cli.main import main, parse
-from dyncatch.reproduce.aggregate import gap, t95, time_gap
+from dyncatch.evaluation.intervals import t_quantile
+from dyncatch.reproduce.aggregate import gap, time_gap
 from dyncatch.reproduce.report import checks_markdown
 from dyncatch.reproduce.stages import estimate_s
 
@@ -49,7 +50,7 @@ def half_gap(st: dict, sp: dict, gt: dict) -> dict:
 
     The three methods' seeds are independent runs, so the variance of D is
     Var(T_st)/n_st + (Var(T_sp)/n_sp + Var(T_gt)/n_gt) / 4; the t quantile takes the
-    smallest group's degrees of freedom (conservative, as ``aggregate.gap`` does).
+    smallest group's degrees of freedom (conservative; scipy's quantile).
     """
     groups = [st["per_seed_catch_time_s"], sp["per_seed_catch_time_s"],
               gt["per_seed_catch_time_s"]]  # fmt: skip
@@ -58,7 +59,7 @@ def half_gap(st: dict, sp: dict, gt: dict) -> dict:
         return {"difference": d, "ci95": None, "verdict": "one seed: no interval"}
     w = (1.0, 0.25, 0.25)
     var = sum(wi * np.var(g, ddof=1) / len(g) for wi, g in zip(w, groups, strict=True))
-    half = t95(min(len(g) for g in groups) - 1) * math.sqrt(var)
+    half = t_quantile(min(len(g) for g in groups) - 1) * math.sqrt(var)
     lo, hi = d - half, d + half
     verdict = (
         "more than half closed"
