@@ -50,7 +50,7 @@ def half_gap(st: dict, sp: dict, gt: dict) -> dict:
 
     The three methods' seeds are independent runs, so the variance of D is
     Var(T_st)/n_st + (Var(T_sp)/n_sp + Var(T_gt)/n_gt) / 4; the t quantile takes the
-    smallest group's degrees of freedom (conservative, as ``aggregate.gap`` does).
+    smallest group's degrees of freedom (conservative; scipy's quantile).
     """
     groups = [st["per_seed_catch_time_s"], sp["per_seed_catch_time_s"],
               gt["per_seed_catch_time_s"]]  # fmt: skip

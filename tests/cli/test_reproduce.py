@@ -81,6 +81,15 @@ def test_every_table_and_figure_is_written(quick):
     for heading in ("Table I: straight", "Table II", "Fig. 5", "Fig. 6", "ordering"):
         assert heading in report, heading
     assert "not the paper's Isaac Gym set-up" in report
+    # The report opens with the primary endpoints: none of the declared ones is on straight.
+    assert report.index("## Primary endpoints") < report.index("## Table I")
+    assert "No primary endpoint in this plan's speeds" in report
+    assert "## Secondary checks" in report and "p (Holm)" in report
+    r = json.loads((quick / "results.json").read_text())
+    assert r["plan"]["primary_endpoints"] and not r["primary_endpoints"]["measured"]
+    secondary = [c for c in r["ordering_checks"] + r["headroom"] if c["role"] == "secondary"]
+    assert {c["family_size"] for c in secondary} == {len(secondary)}
+    assert r["robust_summary"] == [] and r["improvement_probabilities"] == []  # one seed
     # The methods of a default reproduction, not the opt-in ones (st_rl, st_fp).
     for name in reproduced_methods():
         label = PRESENTATION[name].label

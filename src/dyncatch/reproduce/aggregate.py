@@ -153,6 +153,13 @@ def _primary(check: dict, endpoint: Endpoint, alpha: float) -> dict:
         "equivalent_within_margin": -endpoint.margin < lo and hi < endpoint.margin,
         "verdict": _verdict(check["difference"], check["p_value"] < alpha),
     }
+    out["resolution"] = (
+        "resolved"
+        if check["p_value"] < alpha
+        else "equivalent within the margin"
+        if out["equivalent_within_margin"]
+        else "unresolved"
+    )
     if "sd" in check:
         out["seeds_for_80pct_power_at_margin"] = seeds_for_power(endpoint.margin, *check["sd"])
     return out
@@ -198,17 +205,23 @@ _JUDGEMENT_KEYS = frozenset(
         "equivalent_within_margin",
         "seeds_for_80pct_power_at_margin",
         "verdict",
+        "resolution",
         "p_holm",
         "family_size",
     }
 )
 
 
-def ordering_checks(cells: list[dict], speeds, claims) -> list[dict]:
-    """Each claim ``(winner, loser)`` (``reproduce.presentation.paper_claims()``) on success
-    (``metric`` success_rate: difference in rate) and, with 2+ seeds, on catch time
-    (``metric`` catch_time_s: seconds the first method saves); judged by ``judge_family``
-    over these checks alone (a run judges all its checks as one family again)."""
+def ordering_checks(cells: list[dict], speeds, claims, endpoints=PRIMARY_ENDPOINTS) -> list[dict]:
+    """``ordering_gaps`` judged by ``judge_family`` as a family of their own (a run judges
+    all its checks as one family: ``dyncatch.reproduce.summary.judge``)."""
+    return judge_family(ordering_gaps(cells, speeds, claims), endpoints)
+
+
+def ordering_gaps(cells: list[dict], speeds, claims) -> list[dict]:
+    """Each claim ``(winner, loser)`` (``reproduce.presentation.paper_claims()``)
+    on success (``metric`` success_rate: difference in rate) and, with 2+ seeds, on catch
+    time (``metric`` catch_time_s: seconds the first method saves), not yet judged."""
     by = {(c["behavior"], c["method"], c["speed_mps"]): c for c in cells}
     checks = []
     for behavior in dict.fromkeys(c["behavior"] for c in cells):
@@ -227,7 +240,7 @@ def ordering_checks(cells: list[dict], speeds, claims) -> list[dict]:
                 faster = time_gap(a, b)
                 if faster is not None:
                     checks.append({**where, **faster})
-    return judge_family(checks)
+    return checks
 
 
 def best_rival(cells: list[dict]) -> dict:
@@ -235,13 +248,20 @@ def best_rival(cells: list[dict]) -> dict:
     return max(cells, key=lambda c: (c["success_rate"], -c["catch_time_s"]))
 
 
-def headroom_checks(cells: list[dict], speeds, oracle: str, rivals) -> list[dict]:
+def headroom_checks(
+    cells: list[dict], speeds, oracle: str, rivals, endpoints=PRIMARY_ENDPOINTS
+) -> list[dict]:
+    """``headroom_gaps`` judged by ``judge_family`` as a family of their own, as
+    ``ordering_checks``."""
+    return judge_family(headroom_gaps(cells, speeds, oracle, rivals), endpoints)
+
+
+def headroom_gaps(cells: list[dict], speeds, oracle: str, rivals) -> list[dict]:
     """The room a benchmark leaves (issue 12): per behaviour and speed, ``oracle`` against
-    the best of ``rivals`` there (``best_rival``), judged as ``ordering_checks`` judges a
+    the best of ``rivals`` there (``best_rival``), measured as ``ordering_gaps`` measures a
     claim (``claim`` is ``"oracle > best"``, ``best_non_oracle`` names the best), on success
-    and, with 2+ seeds, on catch time. 'holds' means the oracle is measurably better: a
-    method that reads what a robot can sense has room to improve. Judged by
-    ``judge_family`` over these checks alone, as ``ordering_checks``."""
+    and, with 2+ seeds, on catch time, not yet judged. 'holds' means the oracle is
+    measurably better: a method that reads what a robot can sense has room to improve."""
     by = {(c["behavior"], c["method"], c["speed_mps"]): c for c in cells}
     checks = []
     for behavior in dict.fromkeys(c["behavior"] for c in cells):
@@ -262,4 +282,4 @@ def headroom_checks(cells: list[dict], speeds, oracle: str, rivals) -> list[dict
             faster = time_gap(top, best)
             if faster is not None:
                 checks.append({**where, **faster})
-    return judge_family(checks)
+    return checks

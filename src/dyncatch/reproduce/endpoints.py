@@ -9,7 +9,9 @@ other ordering or headroom check is secondary: one family, Holm-corrected
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import Annotated, Literal
+
+from tyro.constructors import PrimitiveConstructorSpec
 
 CheckKind = Literal["ordering", "headroom"]
 
@@ -44,6 +46,64 @@ class Endpoint:
             and (self.claim is None or check.get("claim") == f"{self.claim[0]} > {self.claim[1]}")
         )
 
+    @property
+    def spec(self) -> str:
+        """The command-line form ``parse_endpoint`` reads: ``WINNER-LOSER:BEHAVIOR:SPEED``
+        (an ordering) or ``headroom:BEHAVIOR:SPEED``, then ``:MARGIN`` if not 0.10."""
+        head = "headroom" if self.claim is None else f"{self.claim[0]}-{self.claim[1]}"
+        tail = "" if self.margin == Endpoint.margin else f":{self.margin:g}"
+        return f"{head}:{self.behavior}:{self.speed_mps:g}{tail}"
+
+    @classmethod
+    def from_json(cls, d: dict) -> Endpoint:
+        """An endpoint from its ``plan.json`` record (``dataclasses.asdict``)."""
+        claim = d.get("claim")
+        return cls(**{**d, "claim": None if claim is None else tuple(claim)})
+
+
+def parse_endpoint(text: str) -> Endpoint:
+    """``sp_rl-rl:reactive:1.8`` (success of sp_rl minus rl's on reactive at 1.8 m/s) or
+    ``headroom:reactive:1.8`` (the oracle against the best non-oracle method), optionally
+    ``:MARGIN``. Names are checked against the registries by ``validate_plan``."""
+    parts = text.split(":")
+    try:
+        if len(parts) not in (3, 4):
+            raise ValueError
+        head, behavior, speed = parts[:3]
+        margin = float(parts[3]) if len(parts) == 4 else Endpoint.margin
+        speed_mps = float(speed)
+    except ValueError:
+        raise ValueError(
+            f"--primary-endpoints {text!r}: write WINNER-LOSER:BEHAVIOR:SPEED or "
+            "headroom:BEHAVIOR:SPEED (optionally :MARGIN), e.g. sp_rl-rl:reactive:1.8"
+        ) from None
+    at = "" if abs(speed_mps - TOP_SPEED_MPS) < 1e-9 else f"_{speed_mps:g}mps"
+    if head == "headroom":
+        name = f"oracle_headroom_{behavior}{at}"
+        return Endpoint(name, "headroom", behavior, speed_mps, margin=margin)
+    winner, _, loser = head.partition("-")
+    return Endpoint(
+        f"{winner}_vs_{loser}_{behavior}{at}",
+        "ordering",
+        behavior,
+        speed_mps,
+        (winner, loser),
+        margin=margin,
+    )
+
+
+EndpointArg = Annotated[
+    Endpoint,
+    PrimitiveConstructorSpec(
+        nargs=1,
+        metavar="ENDPOINT",
+        instance_from_str=lambda args: parse_endpoint(args[0]),
+        is_instance=lambda x: isinstance(x, Endpoint),
+        str_from_instance=lambda e: [e.spec],
+    ),
+]
+"""An ``Endpoint`` on the command line, in ``Endpoint.spec``'s form."""
+
 
 TOP_SPEED_MPS = 1.8
 """The paper's high speed (80 % of the robot's), where its claims are made."""
@@ -62,3 +122,22 @@ PRIMARY_ENDPOINTS: tuple[Endpoint, ...] = (
 )
 """``sp_rl - rl`` success at 1.8 m/s on reactive and random_reactive, and the oracle's
 headroom there: the reproduction's verdicts; everything else is secondary."""
+
+
+def validate_endpoints(endpoints, behaviors, methods) -> None:
+    """Raise ValueError (one line, naming ``--primary-endpoints``) for an endpoint whose
+    behaviour or methods are not registered (``behaviors``, ``methods``: the registries' keys),
+    or whose speed or margin cannot work."""
+    for e in endpoints:
+        where = f"--primary-endpoints {e.spec}"
+        if e.behavior not in behaviors:
+            raise ValueError(
+                f"{where}: unknown behaviour {e.behavior!r}; choose from {', '.join(behaviors)}"
+            )
+        for m in e.claim or ():
+            if m not in methods:
+                raise ValueError(f"{where}: unknown method {m!r}; choose from {', '.join(methods)}")
+        if e.claim is not None and e.claim[0] == e.claim[1]:
+            raise ValueError(f"{where}: compares {e.claim[0]!r} with itself")
+        if e.speed_mps < 0 or e.margin <= 0:
+            raise ValueError(f"{where}: the speed must be >= 0 and the margin > 0")

@@ -70,11 +70,19 @@ def check_plan(out: Path, plan: Plan) -> None:
         write_json(path, want)
 
 
-LEGACY_VALUES: dict[str, tuple] = {"vmap_seeds": (False,), "fig9": (False, True)}
+LEGACY_VALUES: dict[str, tuple] = {
+    "vmap_seeds": (False,),
+    "fig9": (False, True),
+    "ground_truth": (),
+    "ppo.obs_min_std": (0.0,),
+}
 """Plan fields added after plans were recorded whose default is not (only) what the code did
 before them, mapped to the values a recorded plan without them is compatible with: plans
 recorded before ``vmap_seeds`` trained their seeds one by one; plans recorded before
-``fig9`` ran no Fig. 9 (off), and turning the stage on only adds its files."""
+``fig9`` ran no Fig. 9 (off), and turning the stage on only adds its files; plans recorded
+before ``ppo.obs_min_std`` normalised without a floor. Before ``ground_truth`` was recorded
+gt_rl trained with ``always`` and then, for a while, ``when_predicted``: none is compatible,
+so such a folder's gt_rl runs are never reused."""
 
 
 def _real_diff(have: dict, want: dict) -> dict:

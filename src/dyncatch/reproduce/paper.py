@@ -101,6 +101,18 @@ def paper_cell(behavior: str, method: str, speed_mps: float | None) -> tuple[flo
     return None
 
 
+def paper_difference(
+    behavior: str, winner: str, loser: str, speed_mps: float | None, metric: str = "success_rate"
+) -> float | None:
+    """The paper's ``winner``-over-``loser`` difference in Table I, as a check measures it:
+    success of the winner minus the loser's, or seconds the winner catches sooner; None
+    where the paper gives either method no number there."""
+    a, b = paper_cell(behavior, winner, speed_mps), paper_cell(behavior, loser, speed_mps)
+    if a is None or b is None:
+        return None
+    return a[0] - b[0] if metric == "success_rate" else b[1] - a[1]
+
+
 PAPER_TABLE_II: dict[tuple[str, str], tuple[float, ...]] = {
     ("circle", "vanilla"): (0.001, 0.0, 0.0, 0.0),
     ("circle", "self_aware"): (0.002, 0.001, 0.001, 0.0),

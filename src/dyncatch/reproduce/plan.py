@@ -13,11 +13,17 @@ from pathlib import Path
 from typing import Literal
 
 from dyncatch.predictor.table import all_behaviors
+from dyncatch.reproduce.endpoints import PRIMARY_ENDPOINTS, EndpointArg
 from dyncatch.reproduce.paper import PAPER_FIG9_SCENES, PAPER_SPEEDS_MPS
 from dyncatch.reproduce.presentation import chosen
 from dyncatch.reproduce.readings import ReadingName, apply_readings
 from dyncatch.rl.config import PPOCfg
-from dyncatch.rl.methods import MethodName, trained_methods
+from dyncatch.rl.methods import (
+    GROUND_TRUTH_READING,
+    GroundTruthReading,
+    MethodName,
+    trained_methods,
+)
 from dyncatch.sim.behaviors import BehaviorName
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.scenes import SceneName
@@ -73,6 +79,17 @@ class Plan:
     ones beyond the paper, st_rl and st_fp, as dyncatch.reproduce.presentation marks them;
     list every method wanted to add them). A method
     evaluated with another's policy (sp_fp, st_fp) needs that one (gt_rl) listed too."""
+    ground_truth: GroundTruthReading = GROUND_TRUTH_READING
+    """How gt_rl (GT-Pred) reads the ground truth, in training and evaluation
+    (dyncatch.rl.methods.GroundTruthReading): when_predicted, the target's true velocity
+    under the predictor's availability rule (default), or always."""
+    primary_endpoints: tuple[EndpointArg, ...] = PRIMARY_ENDPOINTS
+    """The verdicts this plan declares before it runs (dyncatch.reproduce.endpoints), each
+    WINNER-LOSER:BEHAVIOR:SPEED (success of WINNER minus LOSER's) or headroom:BEHAVIOR:SPEED
+    (the oracle against the best non-oracle method), optionally :MARGIN (default 0.1).
+    Judged unadjusted, with the smallest difference the run resolves; every other check is
+    secondary (Holm). One outside the plan's Table I rows, speeds or methods is not
+    measured, and report.md says so."""
     videos: bool = True
     """One GIF per behaviour of the filmed method's policy (and one per Fig. 9 scene)."""
     fig9: bool = True

@@ -264,5 +264,47 @@ def checks_markdown(checks: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def primary_markdown(primary: dict) -> str:
+    """The plan's primary endpoints (``summary.primary_rows``) as a table: the paper's
+    difference where Table I gives one, ours with its 95 % CI, the smallest difference the
+    run resolves (the CI's half-width), the seeds per method for 80 % power at the margin,
+    and the resolution; then the declared endpoints the plan does not measure."""
+    lines = []
+    if primary["measured"]:
+        lines += [
+            "| endpoint | measure | paper | ours [95% CI] | smallest resolvable | "
+            "seeds for 80 % power at the margin | verdict |",
+            "|---|---|---:|---|---:|---:|---|",
+        ]
+    for c in primary["measured"]:
+        lo, hi = c["ci95"]
+        paper = "-" if c["paper_difference"] is None else f"{c['paper_difference']:+.3f}"
+        seeds = c.get("seeds_for_80pct_power_at_margin")
+        verdict = c["resolution"]
+        if verdict == "resolved":
+            verdict += f" ({c['verdict']})"
+        elif verdict.startswith("equivalent"):
+            verdict += f" (+-{c['margin']:g})"
+        lines.append(
+            f"| {c['endpoint']} ({c['claim']}, {c['behavior']}, {c['speed_mps']:g} m/s) | "
+            f"{MEASURE_LABEL[c['metric']]} | {paper} | {c['difference']:+.3f} "
+            f"[{lo:+.3f}, {hi:+.3f}] | +-{c['smallest_resolvable_difference']:.3f} | "
+            f"{'-' if seeds is None else seeds} | {verdict} |"
+        )
+    if not primary["measured"]:
+        lines.append(
+            "No primary endpoint in this plan's speeds, Table I behaviours and methods: "
+            "every check below is secondary."
+        )
+    if primary["not_measured"]:
+        lines += [
+            "",
+            "Declared but not measured by this plan: "
+            + ", ".join(f"`{n}`" for n in primary["not_measured"])
+            + ".",
+        ]
+    return "\n".join(lines)
+
+
 def table_ii_markdown(rows: list[dict]) -> str:
     return table_ii_rows_markdown(rows)

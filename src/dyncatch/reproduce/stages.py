@@ -128,6 +128,7 @@ def run_cfg(plan: Plan, out: Path, behavior: str, method: str, seed: int) -> Tra
         predictor=predictor_path(out, behavior, method),
         resume=False,
         eval_speed_mps=plan.fig6_speed_mps,
+        ground_truth=plan.ground_truth,
         ppo=plan.ppo,
         world=plan.world.with_behavior(behavior),
     )

@@ -10,9 +10,11 @@ import numpy as np
 
 from dyncatch.bench.machine import machine_info
 from dyncatch.reproduce import aggregate, fig9, fig9_report, report
+from dyncatch.reproduce.paper import paper_difference
 from dyncatch.reproduce.plan import Plan
 from dyncatch.reproduce.presentation import paper_claims
 from dyncatch.reproduce.readings import setting_name
+from dyncatch.reproduce.robust import improvement_probabilities, robust_summary
 from dyncatch.rl.methods import METHODS
 
 
@@ -50,20 +52,44 @@ def training_rows(data: dict) -> list[dict]:
 
 def judge(plan: Plan, cells: list[dict], averages: list[dict]) -> tuple[list, list]:
     """(the paper's ordering claims at high speed and on the average, the oracle's
-    headroom over the best non-oracle method at each speed)."""
+    headroom over the best non-oracle method at each speed), judged as one family: the
+    plan's primary endpoints alone, every other check under one Holm correction."""
     high = [v for v in plan.speeds_mps if v >= 1.6 - 1e-9] or [max(plan.speeds_mps)]
     claims = paper_claims(plan.method_names)
-    checks = aggregate.ordering_checks(cells, high, claims)
-    checks += aggregate.ordering_checks(averages, [None], claims)
+    ordering = aggregate.ordering_gaps(cells, high, claims)
+    ordering += aggregate.ordering_gaps(averages, [None], claims)
     chosen = [METHODS[n] for n in plan.method_names]
     rivals = [m.name for m in chosen if not m.oracle]
     headroom = [
         c
         for m in chosen
         if m.oracle
-        for c in aggregate.headroom_checks(cells, plan.speeds_mps, m.name, rivals)
+        for c in aggregate.headroom_gaps(cells, plan.speeds_mps, m.name, rivals)
     ]
-    return checks, headroom
+    judged = aggregate.judge_family(ordering + headroom, plan.primary_endpoints)
+    return judged[: len(ordering)], judged[len(ordering) :]
+
+
+def primary_rows(plan: Plan, checks: list[dict]) -> dict:
+    """The plan's declared endpoints (``plan.json``'s record), those this run measured, one
+    row each with the paper's difference where Table I gives both methods, and those it
+    could not measure (outside its Table I rows, speeds or methods)."""
+    rows = []
+    for c in checks:
+        if c.get("role") != "primary":
+            continue
+        winner, _, loser = c["claim"].partition(" > ")
+        paper = None
+        if c["kind"] == "ordering":
+            paper = paper_difference(c["behavior"], winner, loser, c["speed_mps"], c["metric"])
+        rows.append({**c, "paper_difference": paper})
+    measured = {r["endpoint"] for r in rows}
+    declared = [e.name for e in plan.primary_endpoints]
+    return {
+        "declared": declared,
+        "measured": rows,
+        "not_measured": [n for n in declared if n not in measured],
+    }
 
 
 def results(plan: Plan, out: Path, outputs: dict, command: str, commit: str) -> dict:
@@ -102,8 +128,13 @@ def results(plan: Plan, out: Path, outputs: dict, command: str, commit: str) -> 
         "wall": None,
         "plan": plan.to_json(),
         "table_i": {"cells": cells, "average": averages, "rows": t1_rows},
+        "primary_endpoints": primary_rows(plan, checks + headroom),
         "ordering_checks": checks,
         "headroom": headroom,
+        "robust_summary": robust_summary(cells, plan.speeds_mps, plan.method_names),
+        "improvement_probabilities": improvement_probabilities(
+            cells, plan.speeds_mps, paper_claims(plan.method_names)
+        ),
         "table_ii": outputs["table_ii"],
         "predictors": outputs["predictors"],
         "fig6": {"cells": fig6_cells, "rows": fig6_rows},

@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+from dyncatch.reproduce.endpoints import validate_endpoints
 from dyncatch.reproduce.executors import validate_executor
 from dyncatch.reproduce.fig9 import scene_world
 from dyncatch.reproduce.plan import Plan
 from dyncatch.rl.config import validate_ppo
-from dyncatch.rl.methods import check_selection
+from dyncatch.rl.methods import METHODS, check_selection
 from dyncatch.sim.behaviors import BEHAVIORS
 from dyncatch.sim.validate import validate_speeds, validate_world
 
@@ -37,6 +38,7 @@ def validate_plan(plan: Plan) -> Plan:
         if not plan.methods:
             raise ValueError("--methods needs at least one method (or leave it unset)")
         check_selection(plan.methods)
+    validate_endpoints(plan.primary_endpoints, tuple(BEHAVIORS), tuple(METHODS))
     named = (
         ("table-i", plan.table_i_behaviors),
         ("fig6", plan.fig6_behaviors),

@@ -55,7 +55,8 @@ step without running the policy ahead of itself.
 """
 
 GROUND_TRUTH_READING: GroundTruthReading = "when_predicted"
-"""The reading every ``gt_rl`` run trains and evaluates with."""
+"""The default reading: ``TrainRunCfg.ground_truth`` (``dyncatch train --ground-truth``) and
+``Plan.ground_truth`` choose one per run, and the run's checkpoint records it."""
 
 VELOCITY_INPUTS: tuple[tuple[str, int, str], ...] = (
     (
@@ -144,12 +145,19 @@ class Method:
         return None if self.velocity_input in (None, GROUND_TRUTH) else self.velocity_input
 
     def obs_fn(
-        self, predictor: Predictor | None = None, predictor_params=None, *, evaluation=False
+        self,
+        predictor: Predictor | None = None,
+        predictor_params=None,
+        *,
+        evaluation=False,
+        ground_truth: GroundTruthReading = GROUND_TRUTH_READING,
     ) -> MethodObs:
         """The policy's input function; predictor methods need the matching predictor.
 
         With ``evaluation=True`` an evaluation-only method (``sp_fp``) gets its own input;
         in training it is refused (train its ``trained_as`` method instead).
+        ``ground_truth`` is how the oracle's input reads the truth (a run records it:
+        ``TrainRunCfg.ground_truth``); other methods ignore it.
         """
         if not self.trained and not evaluation:
             raise ValueError(
@@ -158,7 +166,7 @@ class Method:
             )
         kind = self.predictor_kind
         if kind is None:
-            return MethodObs(self.velocity_input)
+            return MethodObs(self.velocity_input, ground_truth=ground_truth)
         if predictor is None or predictor_params is None:
             raise ValueError(
                 f"method {self.name!r} needs a trained {kind!r} predictor "
@@ -319,7 +327,14 @@ class MethodObs:
 
 
 def method_obs(
-    name: str, predictor: Predictor | None = None, predictor_params=None, *, evaluation=False
+    name: str,
+    predictor: Predictor | None = None,
+    predictor_params=None,
+    *,
+    evaluation=False,
+    ground_truth: GroundTruthReading = GROUND_TRUTH_READING,
 ) -> MethodObs:
     """``get_method(name).obs_fn(...)``: the input function of a method by name."""
-    return get_method(name).obs_fn(predictor, predictor_params, evaluation=evaluation)
+    return get_method(name).obs_fn(
+        predictor, predictor_params, evaluation=evaluation, ground_truth=ground_truth
+    )

@@ -17,8 +17,8 @@ import jax
 from flax import struct
 
 from dyncatch.predictor.checkpoint import load_any
-from dyncatch.rl.config import PPOCfg
-from dyncatch.rl.methods import METHODS, MethodObs, get_method
+from dyncatch.rl.config import PPOCfg, validate_ppo
+from dyncatch.rl.methods import GROUND_TRUTH, GROUND_TRUTH_READING, METHODS, MethodObs, get_method
 from dyncatch.rl.networks import ActorCritic
 from dyncatch.rl.normalize import RunningNorm
 from dyncatch.rl.train import make_train, to_command
@@ -104,11 +104,14 @@ def header_world(path: Path, header: dict) -> WorldCfg:
 
 
 def header_ppo(path: Path, header: dict) -> PPOCfg:
-    """The PPO config of a checkpoint's header, typed and checked (TreeFileError else)."""
-    from dyncatch.rl.config import validate_ppo
+    """The PPO config of a checkpoint's header, typed and checked (TreeFileError else).
 
+    A header written before ``obs_min_std`` existed trained with no floor on the
+    normaliser's scale, so it is evaluated with none (0.0), not with today's default."""
+    recorded = header_field(path, header, "ppo", dict)
+    recorded = {"obs_min_std": 0.0, **recorded}
     try:
-        return validate_ppo(from_dict(PPOCfg, header_field(path, header, "ppo", dict), "ppo"))
+        return validate_ppo(from_dict(PPOCfg, recorded, "ppo"))
     except ValueError as err:
         raise TreeFileError(f"{path}: header {err}; retrain the run or restore it") from None
 
@@ -142,6 +145,15 @@ def load_run(
             f"a {trained!r} run cannot be evaluated as {method!r}"
             + (f"; it can be evaluated as {', '.join(reusers)}" if reusers else "")
         )
+    reading = header.get("ground_truth")
+    if reading is None and get_method(trained).velocity_input == GROUND_TRUTH:
+        # Such runs trained with the flag always 1 or, for a while, under the availability
+        # rule: which one is not known, so neither is assumed.
+        raise TreeFileError(
+            f"{path}: a {trained!r} run that does not record its ground-truth reading "
+            "(trained before it was recorded); retrain it with dyncatch train"
+        )
+    reading = reading or GROUND_TRUTH_READING
     ppo = header_ppo(path, header)
     world = header_world(path, header)
     pred = pred_params = None
@@ -153,9 +165,13 @@ def load_run(
             )
 
         pred, pred_params = load_any(pred_path, world)
-    obs_fn = m.obs_fn(pred, pred_params, evaluation=True)
+    obs_fn = m.obs_fn(pred, pred_params, evaluation=True, ground_truth=reading)
     # The template is the train state of the method it was trained as (same input size).
-    train_fn = get_method(trained).obs_fn(pred, pred_params) if method != trained else obs_fn
+    train_fn = (
+        get_method(trained).obs_fn(pred, pred_params, ground_truth=reading)
+        if method != trained
+        else obs_fn
+    )
     env = JaxCatchEnv(world)
     init, _, net = make_train(env, ppo, train_fn)
     template = jax.eval_shape(init, jax.random.key(0))

@@ -26,7 +26,7 @@ from dyncatch.predictor.checkpoint import load_any
 from dyncatch.rl.config import PPOCfg, validate_ppo
 from dyncatch.rl.guard import check_finite
 from dyncatch.rl.logging import LoggerName, MetricLog, validate_loggers
-from dyncatch.rl.methods import MethodName, get_method
+from dyncatch.rl.methods import GROUND_TRUTH_READING, GroundTruthReading, MethodName, get_method
 from dyncatch.rl.policy import CHECKPOINT, TRAIN_FORMAT, LearnedPolicy
 from dyncatch.rl.sharding import batch_mesh, state_shardings, validate_mesh
 from dyncatch.rl.train import TrainState, make_train
@@ -74,6 +74,12 @@ class TrainRunCfg:
     """Where the per-iteration metrics go, one or more of dyncatch.rl.logging.LOGGERS: csv
     (metrics.csv, which dyncatch plot reads and a resumed run continues its wall clock
     from), tensorboard (tb/), wandb (wandb/, offline unless WANDB_MODE is set)."""
+    ground_truth: GroundTruthReading = GROUND_TRUTH_READING
+    """How gt_rl reads the target's true velocity (dyncatch.rl.methods.GroundTruthReading):
+    when_predicted (default), where the predictor would give one (the last two camera frames
+    saw the target), else 0 with its flag at 0, as the predictor; always, at every step with
+    the flag at 1 (the reading before issue 31). Recorded in the checkpoint, which is
+    evaluated with it; other methods ignore it."""
     ppo: PPOCfg = PPOCfg()
     """PPO hyper-parameters and batch geometry."""
     world: WorldCfg = WorldCfg()
@@ -89,6 +95,7 @@ def header_of(cfg: TrainRunCfg) -> dict:
         "behavior": cfg.world.target.behavior,
         "seed": cfg.seed,
         "predictor": str(cfg.predictor) if cfg.predictor else None,
+        "ground_truth": cfg.ground_truth,
         "ppo": dataclasses.asdict(cfg.ppo),
         "world": dataclasses.asdict(cfg.world),
     }
@@ -156,7 +163,9 @@ class TrainRunner:
         predictor = params = None
         if get_method(cfg.method).predictor_kind is not None:
             predictor, params = load_any(cfg.predictor, world)
-        self.obs_fn = get_method(cfg.method).obs_fn(predictor, params)
+        self.obs_fn = get_method(cfg.method).obs_fn(
+            predictor, params, ground_truth=cfg.ground_truth
+        )
         self.mesh = mesh if mesh is not None else batch_mesh()
         validate_mesh(self.ppo, self.mesh.size)
         init, iterate, self.net = make_train(self.env, self.ppo, self.obs_fn, self.mesh)
