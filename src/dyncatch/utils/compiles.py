@@ -1,4 +1,4 @@
-"""Count XLA compilations: which jitted programs a block of code compiled, and how long each took."""
+"""Count XLA compilations: which jitted programs a block of code compiled, and their seconds."""
 
 from __future__ import annotations
 
