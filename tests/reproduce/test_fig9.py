@@ -92,3 +92,25 @@ def test_rows_follow_the_plan_and_names_round_trip():
         assert fig9.row_named(row.name) == row
     with pytest.raises(ValueError, match="POLICY\\+blend"):
         fig9.row_named("sp_rl+fast")
+
+
+def test_a_policys_rows_and_seeds_are_one_job_and_finished_cells_none(tmp_path):
+    """A job per (scene, behaviour, policy): sp_rl with and without the blend over its seeds
+    shares one compiled program; a written cell file leaves its job."""
+    plan = Plan(seeds=2, fig9_scenes=("room_4",), fig9_behaviors=("reactive",))
+    jobs = fig9.cell_jobs(plan, tmp_path, fig9.FIG9_ROWS)
+    assert [j.name for j in jobs] == [
+        "fig9: sp_rl, sp_rl+blend seeds 0, 1 in room_4 on reactive",
+        "fig9: pursuit+blend in room_4 on reactive",
+        "fig9: intercept+blend in room_4 on reactive",
+    ]
+    first = jobs[0].cells[0]
+    assert (first.row, first.deployed.blend, first.deployed.policy.seed) == ("sp_rl", False, 0)
+    first.path.parent.mkdir(parents=True)
+    first.path.write_text("{}")
+    again = fig9.cell_jobs(plan, tmp_path, fig9.FIG9_ROWS)
+    assert [(c.row, c.deployed.policy.seed) for c in again[0].cells] == [
+        ("sp_rl", 1),
+        ("sp_rl+blend", 0),
+        ("sp_rl+blend", 1),
+    ]

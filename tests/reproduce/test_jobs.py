@@ -72,8 +72,10 @@ def test_a_job_pickles_small_and_without_the_plan(tmp_path):
         assert b"dyncatch.reproduce.plan" not in blob, job.name
     eval_job = grid_jobs(plan, tmp_path, "t", ("reactive",), (1.8,))[0]
     assert isinstance(eval_job, EvalJob)
-    # An evaluation cell of a learned policy carries names, paths and numbers only.
-    assert len(pickle.dumps(eval_job)) < 1000
+    # A method's cells (its 3 seeds, one compiled program) carry names, paths and numbers.
+    assert [c.policy.seed for c in eval_job.cells] == [0, 1, 2]
+    assert eval_job.name == f"t: {eval_job.cells[0].policy.name} seeds 0, 1, 2 on reactive"
+    assert len(pickle.dumps(eval_job)) < 1500
 
 
 def test_finished_work_makes_no_job_and_is_read_back(tmp_path):
@@ -124,7 +126,8 @@ def test_a_column_not_trained_on_plays_the_first_behaviours_policy_in_its_own_wo
 
     monkeypatch.setattr(jobs_module, "load_run", fake_load_run)
     jobs = grid_jobs(plan, tmp_path, "fig6", ("circle",), (1.2,))
-    (job,) = [j for j in jobs if (j.policy.name, j.policy.seed) == ("sp_rl", 0)]
+    (job,) = [j for j in jobs if j.cells[0].policy.name == "sp_rl"]
+    assert [c.policy.seed for c in job.cells] == [0]
     job()
     run, as_method, predictor = loaded[0]
     assert run == run_dir(tmp_path, "reactive", "sp_rl", 0)

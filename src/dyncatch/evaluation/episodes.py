@@ -2,6 +2,16 @@
 
 No auto-reset: every environment plays one episode to its end and then freezes its
 statistics, so the N outcomes are independent and unbiased by episode length.
+
+What compiles: one program per (policy structure, world's static fields, episodes, steps,
+contact counting; and the number of speeds for ``run_episodes_at_speeds``). The policy
+structure is a method's network and input function, or a scripted baseline with the world
+it was built for (a hashable policy is a constant); the world's static fields are the
+behaviour, the scene and the scan's rays. A trained policy's parameters, the world's
+numbers (the target's speed among them) and the key are arguments, and so is eq. 10's
+blend when it is a flag (``policies.blend.deploy(..., blend_as_flag=True)``): every seed,
+speed and blend variant of a method in a scene shares one compilation
+(``benchmarks/eval_compiles.py``).
 """
 
 from __future__ import annotations

@@ -154,6 +154,11 @@ class Blended:
     """The world it is deployed in (its scene, walls and base limits)."""
     cfg: BlendCfg = BlendCfg()
     is_pytree_policy: bool = struct.field(pytree_node=False, default=False)
+    on: Any = None
+    """None: always blended. Else the blend as a flag, () bool: a leaf of a pytree policy,
+    so blended and plain cells share one compiled program (``jax.lax.cond`` runs one
+    branch: off, the action is ``catch``'s, bit for bit, and pays no scan); a Python bool
+    of a hashable one (a static argument: each value compiles)."""
 
     def weights(self, state: EnvState) -> tuple[jax.Array, jax.Array]:
         """(w_p, w_c) in ``state``."""
@@ -164,18 +169,28 @@ class Blended:
 
     def step(self, carry, state: EnvState, obs: Obs, key: jax.Array):
         carry, a_catch = as_recurrent(self.catch).step(carry, state, obs, key)
+        if self.on is None or self.on is True:
+            return carry, self._blend(state, a_catch)
+        if self.on is False:
+            return carry, a_catch
+        return carry, jax.lax.cond(self.on, self._blend, lambda _, a: a, state, a_catch)
+
+    def _blend(self, state: EnvState, a_catch: jax.Array) -> jax.Array:
         scan = collid_scan_m(state, self.world, self.cfg.collid)
         a_collid = collid_action(scan, a_catch, self.world, self.cfg.collid)
         w_p, w_c = self.weights(state)
-        return carry, w_p * a_catch + w_c * a_collid
+        return w_p * a_catch + w_c * a_collid
 
 
-def blended(catch, world: WorldCfg, cfg: BlendCfg | None = None) -> Blended:
-    """``catch`` (any policy of ``policies.api``) with eq. 10's collision avoidance."""
+def blended(catch, world: WorldCfg, cfg: BlendCfg | None = None, on: bool | None = None) -> Blended:
+    """``catch`` (any policy of ``policies.api``) with eq. 10's collision avoidance; with
+    ``on``, the blend is a flag (``Blended.on``: traced for a pytree ``catch``)."""
     pytree = getattr(catch, "is_pytree_policy", False)
     if not pytree:
         hash(catch)  # a static jit argument must be hashable: fail here, not in jit
-    return Blended(catch, world, cfg or BlendCfg(), is_pytree_policy=pytree)
+    if on is not None:
+        on = jnp.asarray(on, bool) if pytree else bool(on)
+    return Blended(catch, world, cfg or BlendCfg(), is_pytree_policy=pytree, on=on)
 
 
 @struct.dataclass
@@ -215,15 +230,26 @@ def reads_nothing(world: WorldCfg) -> bool:
     return not scene.walls and scene.layout is None
 
 
-def deploy(policy, trained_world: WorldCfg | None, world: WorldCfg, blend: bool = False, scan=None):
+def deploy(
+    policy,
+    trained_world: WorldCfg | None,
+    world: WorldCfg,
+    blend: bool = False,
+    scan=None,
+    blend_as_flag: bool = False,
+):
     """A policy as deployed in ``world``: a learned one (``trained_world`` given) trained
     where its scan read nothing, deployed where it reads something, is shown the plane's
     scan (``plane_scan``) unless ``scan`` says ``"own"`` (``"plane"`` forces that view,
-    ``None`` decides by the scenes); then eq. 10's blend if ``blend``. Fig. 9 and
-    ``dyncatch eval`` deploy this way."""
+    ``None`` decides by the scenes); then eq. 10's blend if ``blend``. With
+    ``blend_as_flag`` it is a ``Blended`` either way, ``blend`` its flag (``Blended.on``),
+    so a learned policy's blended and plain cells share one compiled evaluation, with the
+    same numbers. Fig. 9 and ``dyncatch eval`` deploy this way."""
     if scan not in (None, "own", "plane"):
         raise ValueError(f"scan must be None, 'own' or 'plane', got {scan!r}")
     auto = trained_world is not None and reads_nothing(trained_world) and not reads_nothing(world)
     if scan == "plane" or (scan is None and auto):
         policy = plane_scan(policy, world)
+    if blend_as_flag:
+        return blended(policy, world, on=blend)
     return blended(policy, world) if blend else policy

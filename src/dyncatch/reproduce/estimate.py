@@ -5,7 +5,10 @@ of 3 seeds x 4 M steps took 551-582 s with its compilation and periodic evaluati
 (training is bound by PPO's update, not the simulator); Table I's 6 speeds x 1000 episodes
 about 20 s per policy; a video 7 s. Its uncontended stages sum to about 132 min; these
 constants give 139. A (method, behaviour)'s seeds compile once whether grouped or one by
-one (a process reuses the compiled iteration: docs/scaling.md).
+one (a process reuses the compiled iteration: docs/scaling.md). An evaluation compiles once
+per (method or baseline, scene, behaviour): seeds, speeds and the Fig. 9 blend flag are
+arguments (``benchmarks/eval_compiles.py``); the formulas count those compilations, and the
+constants are re-measured when the full reproduction is re-run.
 """
 
 from __future__ import annotations
@@ -43,17 +46,24 @@ def _policies(plan: Plan) -> int:
     return len(plan.method_names) * plan.seeds + len(BASELINES)
 
 
+def _programs(plan: Plan) -> int:
+    """Compiled evaluation programs per (scene, behaviour): one per method (its input
+    function) and per baseline; a method's seeds and speeds are arguments of its program."""
+    return len(plan.method_names) + len(BASELINES)
+
+
 def _per_cell_s(plan: Plan) -> float:
-    return plan.episodes / 1000 * EST_EVAL_S_PER_1000_EPISODES + 1.0
+    return plan.episodes / 1000 * EST_EVAL_S_PER_1000_EPISODES
 
 
 def table_i_s(plan: Plan) -> float:
     cells = _policies(plan) * len(plan.speeds_mps) * len(plan.table_i_rows)
-    return cells * _per_cell_s(plan)
+    return cells * _per_cell_s(plan) + _programs(plan) * len(plan.table_i_rows) * EST_COMPILE_S
 
 
 def fig6_s(plan: Plan) -> float:
-    return _policies(plan) * len(fig6_evaluated_columns(plan)) * _per_cell_s(plan)
+    columns = len(fig6_evaluated_columns(plan))
+    return (_policies(plan) * _per_cell_s(plan) + _programs(plan) * EST_COMPILE_S) * columns
 
 
 def videos_s(plan: Plan) -> float:
@@ -61,11 +71,12 @@ def videos_s(plan: Plan) -> float:
 
 
 def fig9_s(plan: Plan) -> float:
-    # The seeds of a trained row share one compilation (a pytree policy is an argument).
+    # One compilation per (policy, scene, behaviour): a trained policy's seeds (a pytree
+    # policy is an argument) and its rows with and without the blend (a traced flag) share it.
     rows = rows_of(plan)
     scenes_behaviors = len(plan.fig9_scenes) * len(plan.fig9_behaviors)
     cells = sum(plan.seeds if r.learned else 1 for r in rows) * scenes_behaviors
-    compiles = len(rows) * scenes_behaviors
+    compiles = len({r.policy for r in rows}) * scenes_behaviors
     # A 40 s episode is 2 of the 20 s ones the evaluation constant was measured on.
     episode_s = (plan.fig9_duration_s or 40.0) / 20.0
     per_cell = plan.fig9_episodes / 1000 * EST_EVAL_S_PER_1000_EPISODES * episode_s

@@ -30,7 +30,7 @@ from dyncatch.evaluation.stats import summarize as summarize_outcome
 from dyncatch.policies.blend import deploy
 from dyncatch.policies.registry import BASELINES
 from dyncatch.reproduce.aggregate import mean_ci, summarize_cells
-from dyncatch.reproduce.jobs import Job, PolicySpec, policy_spec
+from dyncatch.reproduce.jobs import Job, PolicySpec, policy_spec, seeds_label
 from dyncatch.reproduce.layout import cached, cell_name, source_behavior
 from dyncatch.reproduce.plan import Plan
 from dyncatch.reproduce.presentation import PRESENTATION
@@ -114,14 +114,16 @@ class Deployment:
     policy: PolicySpec
     duration_s: float | None = None
 
-    def load(self):
+    def load(self, blend_as_flag: bool = False):
         """(policy, world). A policy trained where the scan reads nothing (no walls, no
-        obstacles) is shown that scan (``policies.blend.plane_scan``)."""
+        obstacles) is shown that scan (``policies.blend.plane_scan``). ``blend_as_flag``:
+        the blend a flag of the policy (``policies.blend.deploy``), so a learned policy's
+        rows with and without it share one compiled evaluation."""
         policy, trained_world = self.policy.load()
         world = scene_world(trained_world, self.scene, self.behavior, self.duration_s)
         if not self.policy.learned:  # a baseline is built for the world it plays in
-            return deploy(BASELINES[self.policy.name](world), None, world, self.blend), world
-        return deploy(policy, trained_world, world, self.blend), world
+            policy, trained_world = BASELINES[self.policy.name](world), None
+        return deploy(policy, trained_world, world, self.blend, blend_as_flag=blend_as_flag), world
 
 
 def deployment(plan: Plan, out: Path, scene: str, behavior: str, row: Fig9Row, seed):
@@ -139,45 +141,56 @@ def cell_path(out: Path, scene: str, behavior: str, row: str, seed) -> Path:
 
 
 @dataclass(frozen=True)
-class Fig9CellJob(Job):
-    """One (scene, behaviour, row, seed) cell into ``path``."""
+class Fig9Cell:
+    """One (scene, behaviour, row, seed) cell, written to ``path``."""
 
     path: Path
-    deployed: Deployment
     row: str
-    episodes: int
+    deployed: Deployment
     trained_on: str | None
+
+
+@dataclass(frozen=True)
+class Fig9Job(Job):
+    """One policy's unfinished cells in one (scene, behaviour): its rows (with and without
+    the blend) and seeds play through one compiled program (the parameters and the blend
+    flag are arguments: ``Deployment.load(blend_as_flag=True)``), a file per cell."""
+
+    cells: tuple[Fig9Cell, ...]
+    episodes: int
 
     @property
     def name(self) -> str:
-        d = self.deployed
-        seed = "" if d.policy.seed is None else f" seed {d.policy.seed}"
-        return f"fig9: {self.row}{seed} in {d.scene} on {d.behavior}"
+        d = self.cells[0].deployed
+        rows = ", ".join(dict.fromkeys(c.row for c in self.cells))
+        seeds = dict.fromkeys(c.deployed.policy.seed for c in self.cells)
+        seeds = seeds_label("", seeds).strip()
+        return f"fig9: {rows}{' ' * bool(seeds)}{seeds} in {d.scene} on {d.behavior}"
 
     def run(self, progress=None) -> None:
-        d = self.deployed
+        for cell in self.cells:
+            cached(cell.path, lambda cell=cell: self._evaluate(cell))
 
-        def compute():
-            policy, world = d.load()
-            key = cell_key(d.scene, d.behavior)
-            outcome = jax.device_get(
-                run_episodes(policy, key, world, self.episodes, contact_tol_m=CONTACT_TOL_M)
-            )
-            s = summarize_outcome(outcome)
-            return {
-                "scene": d.scene,
-                "behavior": d.behavior,
-                "method": self.row,
-                "seed": d.policy.seed,
-                "episodes": s["episodes"],
-                "success_rate": s["success_rate"],
-                "success_ci95": s["success_ci95"],
-                "catch_time_s": s["catch_time_s"],
-                "contacts_per_episode": float(np.mean(outcome["contacts"])),
-                "trained_on": self.trained_on,
-            }
-
-        cached(self.path, compute)
+    def _evaluate(self, cell: Fig9Cell) -> dict:
+        d = cell.deployed
+        policy, world = d.load(blend_as_flag=True)
+        key = cell_key(d.scene, d.behavior)
+        outcome = jax.device_get(
+            run_episodes(policy, key, world, self.episodes, contact_tol_m=CONTACT_TOL_M)
+        )
+        s = summarize_outcome(outcome)
+        return {
+            "scene": d.scene,
+            "behavior": d.behavior,
+            "method": cell.row,
+            "seed": d.policy.seed,
+            "episodes": s["episodes"],
+            "success_rate": s["success_rate"],
+            "success_ci95": s["success_ci95"],
+            "catch_time_s": s["catch_time_s"],
+            "contacts_per_episode": float(np.mean(outcome["contacts"])),
+            "trained_on": cell.trained_on,
+        }
 
 
 def _cells(plan: Plan, rows) -> list[tuple]:
@@ -191,16 +204,17 @@ def _cells(plan: Plan, rows) -> list[tuple]:
 
 
 def cell_jobs(plan: Plan, out: Path, rows=None) -> list[Job]:
-    """The unfinished cells of Fig. 9 (default rows: ``rows_of(plan)``)."""
-    jobs = []
+    """The unfinished cells of Fig. 9 (default rows: ``rows_of(plan)``), a job per (scene,
+    behaviour, policy): the rows of one policy, blended or not, share its program."""
+    groups: dict[tuple, list[Fig9Cell]] = {}
     for sc, b, r, s in _cells(plan, rows_of(plan) if rows is None else rows):
         path = cell_path(out, sc, b, r, s)
         if not path.exists():
             row = row_named(r)
             trained_on = source_behavior(plan, b) if row.learned else None
             d = deployment(plan, out, sc, b, row, s)
-            jobs.append(Fig9CellJob(path, d, r, plan.fig9_episodes, trained_on))
-    return jobs
+            groups.setdefault((sc, b, row.policy), []).append(Fig9Cell(path, r, d, trained_on))
+    return [Fig9Job(tuple(cells), plan.fig9_episodes) for cells in groups.values()]
 
 
 def cell_rows(plan: Plan, out: Path, rows=None) -> list[dict]:

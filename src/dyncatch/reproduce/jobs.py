@@ -201,28 +201,49 @@ class TrainJob(Job):
 
 
 @dataclass(frozen=True)
-class EvalJob(Job):
-    """One policy's cells of a grid (its speeds on one behaviour) into ``path``."""
+class EvalCell:
+    """One policy's row of a grid (its speeds on one behaviour), written to ``path``."""
 
     path: Path
+    policy: PolicySpec
+
+
+def seeds_label(name: str, seeds) -> str:
+    """``sp_rl seeds 0, 2``, ``sp_rl seed 1`` or ``pursuit`` (no seed)."""
+    seeds = [s for s in seeds if s is not None]
+    if not seeds:
+        return name
+    return f"{name} seed{'s' * (len(seeds) > 1)} " + ", ".join(map(str, seeds))
+
+
+@dataclass(frozen=True)
+class EvalJob(Job):
+    """One method's unfinished cells of a grid on one behaviour, a file per seed: its seeds
+    play through one compiled program (a learned policy's parameters and the speeds are
+    arguments, ``evaluation.episodes.run_episodes_at_speeds``), whatever process runs the
+    job."""
+
     table: str
     behavior: str
-    policy: PolicySpec
+    cells: tuple[EvalCell, ...]
     speeds_mps: tuple[float, ...]
     episodes: int
 
     @property
     def name(self) -> str:
-        return f"{self.table}: {self.policy.label(f'on {self.behavior}')}"
+        label = seeds_label(self.cells[0].policy.name, [c.policy.seed for c in self.cells])
+        return f"{self.table}: {label} on {self.behavior}"
 
     def run(self, progress=None) -> None:
-        def compute():
-            policy, world = self.policy.load()
-            return evaluate_speeds(
-                policy, world, self.behavior, self.speeds_mps, self.episodes, 0, self.policy.name
-            )
+        for cell in self.cells:
 
-        cached(self.path, compute)
+            def compute(spec=cell.policy):
+                policy, world = spec.load()
+                return evaluate_speeds(
+                    policy, world, self.behavior, self.speeds_mps, self.episodes, 0, spec.name
+                )
+
+            cached(cell.path, compute)
 
 
 @dataclass(frozen=True)

@@ -25,6 +25,7 @@ from dyncatch.predictor.table import TableCfg
 from dyncatch.predictor.tracker.config import TrackerTrainCfg
 from dyncatch.reproduce import estimate, fig9
 from dyncatch.reproduce.jobs import (
+    EvalCell,
     EvalJob,
     Job,
     PredictorJob,
@@ -155,20 +156,20 @@ def policies(plan: Plan) -> list[tuple[str, int | None]]:
 
 
 def grid_jobs(plan: Plan, out: Path, table: str, behaviors, speeds) -> list[Job]:
-    """A job per (behaviour, policy) whose cells (one per speed) are not cached."""
-    return [
-        EvalJob(
-            cell_path(out, table, b, m, s),
-            table,
-            b,
-            policy_spec(plan, out, b, m, s),
-            tuple(speeds),
-            plan.episodes,
-        )
-        for b in behaviors
-        for m, s in policies(plan)
-        if not cell_path(out, table, b, m, s).exists()
-    ]
+    """A job per (behaviour, policy name) with the cells (one file per seed, each one
+    per speed) not cached: a method's seeds share its compiled evaluation."""
+    jobs = []
+    for b in behaviors:
+        names = dict.fromkeys(m for m, _ in policies(plan))
+        for name in names:
+            cells = tuple(
+                EvalCell(cell_path(out, table, b, m, s), policy_spec(plan, out, b, m, s))
+                for m, s in policies(plan)
+                if m == name and not cell_path(out, table, b, m, s).exists()
+            )
+            if cells:
+                jobs.append(EvalJob(table, b, cells, tuple(speeds), plan.episodes))
+    return jobs
 
 
 def grid_rows(plan: Plan, out: Path, table: str, behaviors) -> list[dict]:
