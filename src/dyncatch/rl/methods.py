@@ -12,6 +12,10 @@ position and velocity estimate and their uncertainty (``TRACK_INPUTS``); ``st_fp
 ``gt_rl`` policy run with the tracker's velocity. The tracker carries a memory per
 environment: ``MethodObs.init_carry`` / ``MethodObs.step`` are the seam every rollout calls
 (the carry is ``()`` and ``step`` is ``__call__`` for every other method).
+
+Beyond the paper too, ``rnn_rl`` is ``rl``'s input read by a GRU actor-critic trained by
+recurrent PPO (``Method.memory``; ``rl.recurrent``, ``rl.recurrent_train``): the
+reviewer's question whether memory does what the explicit predictor does.
 """
 
 from __future__ import annotations
@@ -121,6 +125,9 @@ class Method:
     input_layout: InputLayout = "velocity"
     """What is appended to the observation: ``VELOCITY_INPUTS`` (where ``velocity_input``
     is set) or, from the tracker, ``TRACK_INPUTS``."""
+    memory: bool = False
+    """The policy carries a GRU hidden state between control steps (``rl.recurrent``),
+    trained by recurrent PPO (``rl.recurrent_train``); else a feed-forward MLP."""
 
     @property
     def trained(self) -> bool:
@@ -196,6 +203,7 @@ METHODS: dict[str, Method] = {
             TRACKER,
             input_layout="track",
         ),
+        Method("rnn_rl", "monolithic RL with a GRU memory (recurrent PPO)", memory=True),
     )
 }
 
