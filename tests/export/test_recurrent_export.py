@@ -14,8 +14,12 @@ import pytest
 
 from dyncatch.cli.main import main
 from dyncatch.export import export
+from dyncatch.predictor.checkpoint import save as save_predictor
+from dyncatch.predictor.config import PredictorCfg
+from dyncatch.predictor.model import Predictor
 from dyncatch.rl.policy import load_run
 from dyncatch.rl.recurrent import MemoryPolicy
+from dyncatch.sim.config import WorldCfg
 from tests.export.test_export import FAST
 
 N_ENVS = 8
@@ -100,3 +104,20 @@ def test_a_policy_that_saturates_and_remembers_strongly_matches_too(run, tmp_pat
     # Measured: 7 % of the command entries at a limit, the hidden state's mean |h| 0.84.
     assert 0.03 < at_bound.mean() < 0.97
     assert np.abs(memory).mean() > 0.3
+
+
+def test_rnn_sp_rl_trains_with_the_predictor_and_exports_both_graphs(tmp_path):
+    """The same memory on sp_rl's input: one iteration at the command line, loaded as a
+    memory policy reading the predictor, exported as the recurrent policy plus predictor."""
+    pred = Predictor.for_world(PredictorCfg(kind="self_aware", hidden=(8,)), WorldCfg())
+    save_predictor(tmp_path / "p.safetensors", pred, pred.init(jax.random.key(0)))
+    run, out = tmp_path / "run", tmp_path / "onnx"
+    argv = ["train", "--method", "rnn_sp_rl", "--out", str(run), *FAST]
+    assert main([*argv, "--predictor", str(tmp_path / "p.safetensors")]) == 0
+    policy = load_run(run).policy
+    assert isinstance(policy, MemoryPolicy) and policy.obs_fn.velocity_input == "self_aware"
+    assert main(["export", str(run), "--out", str(out)]) == 0
+    manifest = json.loads((out / "export.json").read_text())
+    assert manifest["predictor"]["kind"] == "self_aware" and (out / "predictor.onnx").exists()
+    assert [i["name"] for i in manifest["policy"]["inputs"]] == ["obs", "memory_in"]
+    _parity(policy, out / "policy.onnx")

@@ -15,7 +15,8 @@ environment: ``MethodObs.init_carry`` / ``MethodObs.step`` are the seam every ro
 
 Beyond the paper too, ``rnn_rl`` is ``rl``'s input read by a GRU actor-critic trained by
 recurrent PPO (``Method.memory``; ``rl.recurrent``, ``rl.recurrent_train``): the
-reviewer's question whether memory does what the explicit predictor does.
+reviewer's question whether memory does what the explicit predictor does; ``rnn_sp_rl``
+is ``sp_rl``'s input under the same memory.
 """
 
 from __future__ import annotations
@@ -204,6 +205,12 @@ METHODS: dict[str, Method] = {
             input_layout="track",
         ),
         Method("rnn_rl", "monolithic RL with a GRU memory (recurrent PPO)", memory=True),
+        Method(
+            "rnn_sp_rl",
+            "self-aware predictor + RL with a GRU memory (recurrent PPO)",
+            "self_aware",
+            memory=True,
+        ),
     )
 }
 
