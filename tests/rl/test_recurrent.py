@@ -167,3 +167,10 @@ def test_the_memory_policy_starts_each_episode_from_zero_and_carries_its_state()
     carry2, command2 = policy.step(carry1, state, obs, None)
     assert bool(jnp.any(carry1[1] != carry2[1]))  # the same input moves a different state
     assert command.shape == (3,) and bool(jnp.any(command != command2))
+
+
+def test_minibatches_that_would_split_an_environment_are_refused_with_the_flag():
+    # 6 environments x 4 steps divide into 4 minibatches of steps, not of whole sequences.
+    ppo = PPOCfg(num_envs=6, num_steps=4, num_minibatches=4)
+    with pytest.raises(ValueError, match="must divide ppo.num_envs=6.*--ppo.num-minibatches"):
+        make_recurrent_train(WorldCfg(), ppo)
