@@ -25,7 +25,9 @@ def _state_after(steps):
 
 
 def test_registry_holds_the_paper_methods():
-    assert set(METHODS) == {"rl", "p_rl", "sp_rl", "gt_rl", "sp_fp", "st_rl", "st_fp"}
+    assert set(METHODS) == {
+        "rl", "p_rl", "sp_rl", "gt_rl", "sp_fp", "st_rl", "st_fp", "rnn_rl", "rnn_sp_rl"
+    }  # fmt: skip
     assert METHODS["sp_fp"].trained_as == "gt_rl"
 
 

@@ -98,6 +98,11 @@ def run_ppo_bench(cmd: PPOBenchCmd) -> dict:
     if not cmd.gemm_rows or min(cmd.gemm_rows) < 1:
         raise ValueError(f"--gemm-rows must be positive row counts, got {cmd.gemm_rows}")
     method = get_method(cmd.method)
+    if method.memory:
+        raise ValueError(
+            f"bench ppo measures the feed-forward PPO update; {cmd.method!r} trains by "
+            f"recurrent PPO, which it does not model: time dyncatch train --method {cmd.method}"
+        )
     kind = method.predictor_kind
     predictor = params = None
     pred_flops = 0

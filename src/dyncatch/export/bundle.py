@@ -3,7 +3,9 @@
 ``export_run(run_dir, out)`` writes into ``out``:
 
 - ``policy.onnx``: the method's input vector (batch, D) -> the base command (batch, 3) in
-  m/s, m/s, rad/s (normalisation, the actor's mean action, clip and scaling);
+  m/s, m/s, rad/s (normalisation, the actor's mean action, clip and scaling); for a method
+  with memory (``rnn_rl``) also the actor's GRU state in (``memory_in``, zeros at an
+  episode's start) and out (``memory_out``, fed back at the next control step);
 - ``predictor.onnx`` (methods that read a predictor): the predictor's encoded inputs
   (batch, D_pred) and output yaws (batch,) -> the target's world velocity (batch, 2), m/s;
 - ``export.json``: every input's layout (names, offsets, units, meanings), the rates, the
@@ -25,16 +27,28 @@ from pathlib import Path
 import numpy as np
 import onnx
 
-from dyncatch.export.graphs import IR_VERSION, OPSET, policy_model, predictor_model
+from dyncatch.export.graphs import (
+    IR_VERSION,
+    OPSET,
+    policy_model,
+    predictor_model,
+    recurrent_policy_model,
+)
 from dyncatch.export.layout import FRAMES, command_layout, policy_layout, predictor_layout
 from dyncatch.predictor.features import get_encoder
 from dyncatch.rl.networks import ActorCritic
 from dyncatch.rl.policy import Run, load_run
+from dyncatch.rl.recurrent import RecurrentActorCritic
 
 FORMAT = "dyncatch.export/1"
 POLICY_FILE = "policy.onnx"
 PREDICTOR_FILE = "predictor.onnx"
 MANIFEST_FILE = "export.json"
+
+MEMORY_DOC = (
+    "the actor's GRU hidden state: zeros at an episode's start, then the previous control "
+    "step's memory_out (one row per robot)"
+)
 
 TO_POLICY = (
     "v_world = predictor output; ok = 1 if the last two camera frames both saw the target "
@@ -74,8 +88,11 @@ def export(run: Run, out: str | Path, source: dict | None = None) -> dict:
     the run came from.
     """
     policy = run.policy
-    if not isinstance(policy.net, ActorCritic):
-        raise ValueError(f"cannot export a {type(policy.net).__name__}: only ActorCritic")
+    if not isinstance(policy.net, ActorCritic | RecurrentActorCritic):
+        raise ValueError(
+            f"cannot export a {type(policy.net).__name__}: only ActorCritic and "
+            "RecurrentActorCritic"
+        )
     if policy.obs_fn.stateful:
         raise ValueError(
             f"cannot export {run.method!r}: its tracker carries a memory between steps, "
@@ -88,10 +105,22 @@ def export(run: Run, out: str | Path, source: dict | None = None) -> dict:
     low, high = np.asarray(spec.low, np.float32), np.asarray(spec.high, np.float32)
     inputs = policy_layout(obs_fn, world)
     doc = f"dyncatch {run.method} policy ({run.behavior}): obs (batch, D) -> command (batch, 3)"
-    norm = policy.norm
-    model = policy_model(
-        policy.params["params"]["actor"], norm.mean, norm.var, low, high, doc, norm.min_std
-    )
+    norm, params = policy.norm, policy.params["params"]
+    recurrent = isinstance(policy.net, RecurrentActorCritic)
+    if recurrent:
+        doc += "; memory_in (batch, H) -> memory_out (batch, H)"
+        model = recurrent_policy_model(
+            params["actor_memory"],
+            params["actor"],
+            norm.mean,
+            norm.var,
+            low,
+            high,
+            doc,
+            norm.min_std,
+        )
+    else:
+        model = policy_model(params["actor"], norm.mean, norm.var, low, high, doc, norm.min_std)
     manifest = {
         "format": FORMAT,
         "method": run.method,
@@ -130,6 +159,12 @@ def export(run: Run, out: str | Path, source: dict | None = None) -> dict:
         },
         "source": source or {},
     }
+    if recurrent:
+        state = {"shape": ["batch", policy.net.memory_size], "dtype": "float32", "unit": "1"}
+        manifest["policy"]["inputs"].append({"name": "memory_in", **state, "doc": MEMORY_DOC})
+        manifest["policy"]["outputs"].append(
+            {"name": "memory_out", **state, "doc": "the GRU hidden state after this step"}
+        )
     if obs_fn.predictor is None:
         (out / PREDICTOR_FILE).unlink(missing_ok=True)  # an earlier export's, now stale
     else:

@@ -7,6 +7,9 @@ one the JAX code applies, in the same order (so float32 results agree to roundin
   the actor MLP (``MatMul`` + ``Add``, ``Elu``; the critic and the log-std are left out:
   the deployed action is the mean); the clip to [-1, 1] and ``to_command``'s scaling
   ``low + (a + 1) * 0.5 * (high - low)``.
+- recurrent policy (``rnn_rl``): the same with the actor's GRU between the normaliser and
+  the MLP (``MatMul`` + ``Add``, ``Split`` into the three gates, ``Sigmoid``, ``Tanh``),
+  its hidden state an input (``memory_in``) and an output (``memory_out``).
 - predictor: ``(x - in_mean) / in_std``, the MLP (``Gelu`` with the tanh approximation, as
   ``flax.linen.gelu``), the output rotated by ``yaw_out`` (``rotate``).
 
@@ -88,6 +91,28 @@ def _value_info(name: str, dims: list) -> onnx.ValueInfoProto:
     return helper.make_tensor_value_info(name, TensorProto.FLOAT, dims)
 
 
+def _normalised(g: _Graph, x: str, norm_mean, norm_var, min_std: float) -> str:
+    """``RunningNorm``: ``(x - mean) / max(sqrt(var + 1e-8), min_std)`` clipped to [-10, 10]."""
+    mean = np.asarray(norm_mean, np.float32)
+    std = np.sqrt(np.asarray(norm_var, np.float32) + np.float32(NORM_EPS))
+    std = np.maximum(std, np.float32(min_std))
+    z = g.op("Sub", [x, g.const("norm/mean", mean)], "norm/centred")
+    z = g.op("Div", [z, g.const("norm/std", std)], "norm/scaled")
+    lim = g.const("norm/clip", NORM_CLIP), g.const("norm/-clip", -NORM_CLIP)
+    return g.op("Clip", [z, lim[1], lim[0]], "norm/clipped")
+
+
+def _command(g: _Graph, a: str, low, high) -> str:
+    """``to_command``: the action clipped to [-1, 1], then ``low + (a + 1) * 0.5 * (high -
+    low)``, as ``command``."""
+    low, high = np.asarray(low, np.float32), np.asarray(high, np.float32)
+    a = g.op("Clip", [a, g.const("one/neg", -1.0), g.const("one", 1.0)], "action/clipped")
+    a = g.op("Add", [a, "one"], "command/shifted")
+    a = g.op("Mul", [a, g.const("half", 0.5)], "command/unit")
+    a = g.op("Mul", [a, g.const("command/range", high - low)], "command/ranged")
+    return g.op("Add", [g.const("command/low", low), a], "command")
+
+
 def policy_model(
     actor: dict, norm_mean, norm_var, low, high, doc: str = "", min_std: float = 0.0
 ) -> onnx.ModelProto:
@@ -98,27 +123,68 @@ def policy_model(
     the command limits the policy was trained with; ``min_std`` the normaliser's floor of
     its scale (``RunningNorm.min_std``).
     """
-    mean = np.asarray(norm_mean, np.float32)
-    std = np.sqrt(np.asarray(norm_var, np.float32) + np.float32(NORM_EPS))
-    std = np.maximum(std, np.float32(min_std))
-    low, high = np.asarray(low, np.float32), np.asarray(high, np.float32)
     layers = dense_layers(actor)
     g = _Graph()
-    z = g.op("Sub", ["obs", g.const("norm/mean", mean)], "norm/centred")
-    z = g.op("Div", [z, g.const("norm/std", std)], "norm/scaled")
-    lim = g.const("norm/clip", NORM_CLIP), g.const("norm/-clip", -NORM_CLIP)
-    z = g.op("Clip", [z, lim[1], lim[0]], "norm/clipped")
-    a = g.mlp(z, layers, "Elu", "actor", alpha=1.0)
-    a = g.op("Clip", [a, g.const("one/neg", -1.0), g.const("one", 1.0)], "action/clipped")
-    a = g.op("Add", [a, "one"], "command/shifted")
-    a = g.op("Mul", [a, g.const("half", 0.5)], "command/unit")
-    a = g.op("Mul", [a, g.const("command/range", high - low)], "command/ranged")
-    g.op("Add", [g.const("command/low", low), a], "command")
-    d, n_out = mean.shape[0], layers[-1]["bias"].shape[0]
+    z = _normalised(g, "obs", norm_mean, norm_var, min_std)
+    _command(g, g.mlp(z, layers, "Elu", "actor", alpha=1.0), low, high)
+    d, n_out = np.asarray(norm_mean).shape[0], layers[-1]["bias"].shape[0]
     return g.model(
         "dyncatch_policy",
         [_value_info("obs", ["batch", d])],
         [_value_info("command", ["batch", n_out])],
+        doc,
+    )
+
+
+def _gru(g: _Graph, x: str, h: str, params: dict, out: str) -> str:
+    """``rl.recurrent.GRU``, op for op: r, z, n from the fused input and hidden products,
+    then ``(1 - z) * n + z * h`` as ``out``."""
+    width = np.asarray(params["hidden"]["kernel"]).shape[0]
+    sizes = g.int_const("gru/sizes", [width] * 3)
+    parts = {}
+    for name, src in (("input", x), ("hidden", h)):
+        w = g.const(f"gru/{name}/kernel", params[name]["kernel"])
+        b = g.const(f"gru/{name}/bias", params[name]["bias"])
+        y = g.op("Add", [g.op("MatMul", [src, w], f"gru/{name}/matmul"), b], f"gru/{name}")
+        parts[name] = [f"gru/{name}/{gate}" for gate in ("r", "z", "n")]
+        g.nodes.append(helper.make_node("Split", [y, sizes], parts[name], axis=1))
+    (ir, iz, i_n), (hr, hz, h_n) = parts["input"], parts["hidden"]
+    r = g.op("Sigmoid", [g.op("Add", [ir, hr], "gru/r_in")], "gru/r")
+    z = g.op("Sigmoid", [g.op("Add", [iz, hz], "gru/z_in")], "gru/z")
+    n = g.op("Tanh", [g.op("Add", [i_n, g.op("Mul", [r, h_n], "gru/rh")], "gru/n_in")], "gru/n")
+    keep = g.op("Sub", [g.const("gru/one", 1.0), z], "gru/keep")
+    new = g.op("Mul", [keep, n], "gru/new")
+    return g.op("Add", [new, g.op("Mul", [z, h], "gru/old")], out)
+
+
+def recurrent_policy_model(
+    actor_memory: dict,
+    actor: dict,
+    norm_mean,
+    norm_var,
+    low,
+    high,
+    doc: str = "",
+    min_std: float = 0.0,
+) -> onnx.ModelProto:
+    """``obs`` (batch, D) and ``memory_in`` (batch, H) -> ``command`` (batch, 3) and
+    ``memory_out`` (batch, H): one control step of a recurrent policy
+    (``rl.recurrent.MemoryPolicy``). The normaliser, the actor's GRU
+    (``params["params"]["actor_memory"]``), its MLP head and the command scaling; the caller
+    feeds ``memory_out`` back as the next step's ``memory_in`` and zeros at an episode's
+    start. The other arguments are ``policy_model``'s.
+    """
+    layers = dense_layers(actor)
+    g = _Graph()
+    z = _normalised(g, "obs", norm_mean, norm_var, min_std)
+    h = _gru(g, z, "memory_in", actor_memory, "memory_out")
+    _command(g, g.mlp(h, layers, "Elu", "actor", alpha=1.0), low, high)
+    d, n_out = np.asarray(norm_mean).shape[0], layers[-1]["bias"].shape[0]
+    width = np.asarray(actor_memory["hidden"]["kernel"]).shape[0]
+    return g.model(
+        "dyncatch_recurrent_policy",
+        [_value_info("obs", ["batch", d]), _value_info("memory_in", ["batch", width])],
+        [_value_info("command", ["batch", n_out]), _value_info("memory_out", ["batch", width])],
         doc,
     )
 

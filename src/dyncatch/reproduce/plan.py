@@ -76,7 +76,8 @@ class Plan:
     """Rows of Table II (default: every registered behaviour)."""
     methods: tuple[MethodName, ...] | None = None
     """Methods compared, names of dyncatch.rl.methods.METHODS (default: all but the opt-in
-    ones beyond the paper, st_rl and st_fp, as dyncatch.reproduce.presentation marks them;
+    ones beyond the paper, st_rl, st_fp, rnn_rl and rnn_sp_rl, as
+    dyncatch.reproduce.presentation marks them;
     list every method wanted to add them). A method
     evaluated with another's policy (sp_fp, st_fp) needs that one (gt_rl) listed too."""
     ground_truth: GroundTruthReading = GROUND_TRUTH_READING

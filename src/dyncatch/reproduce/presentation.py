@@ -43,6 +43,8 @@ PRESENTATION: dict[str, Presentation] = {
         Presentation("gt_rl", "GT-Pred RL", "C4"),
         Presentation("st_fp", "ST+FP", "C5", reproduced=False),
         Presentation("st_rl", "ST+RL", "C6", beats=("sp_rl",), reproduced=False),
+        Presentation("rnn_rl", "RNN+RL", "C7", reproduced=False),
+        Presentation("rnn_sp_rl", "RNN+SP+RL", "C8", reproduced=False),
     )
 }
 """Every method's presentation, in ``METHODS``'s order (the order of tables and legends)."""

@@ -12,6 +12,11 @@ position and velocity estimate and their uncertainty (``TRACK_INPUTS``); ``st_fp
 ``gt_rl`` policy run with the tracker's velocity. The tracker carries a memory per
 environment: ``MethodObs.init_carry`` / ``MethodObs.step`` are the seam every rollout calls
 (the carry is ``()`` and ``step`` is ``__call__`` for every other method).
+
+Beyond the paper too, ``rnn_rl`` is ``rl``'s input read by a GRU actor-critic trained by
+recurrent PPO (``Method.memory``; ``rl.recurrent``, ``rl.recurrent_train``): the
+reviewer's question whether memory does what the explicit predictor does; ``rnn_sp_rl``
+is ``sp_rl``'s input under the same memory.
 """
 
 from __future__ import annotations
@@ -122,6 +127,9 @@ class Method:
     input_layout: InputLayout = "velocity"
     """What is appended to the observation: ``VELOCITY_INPUTS`` (where ``velocity_input``
     is set) or, from the tracker, ``TRACK_INPUTS``."""
+    memory: bool = False
+    """The policy carries a GRU hidden state between control steps (``rl.recurrent``),
+    trained by recurrent PPO (``rl.recurrent_train``); else a feed-forward MLP."""
 
     @property
     def trained(self) -> bool:
@@ -203,6 +211,13 @@ METHODS: dict[str, Method] = {
             "self-aware tracker (position, velocity, uncertainty at 50 Hz) + RL",
             TRACKER,
             input_layout="track",
+        ),
+        Method("rnn_rl", "monolithic RL with a GRU memory (recurrent PPO)", memory=True),
+        Method(
+            "rnn_sp_rl",
+            "self-aware predictor + RL with a GRU memory (recurrent PPO)",
+            "self_aware",
+            memory=True,
         ),
     )
 }

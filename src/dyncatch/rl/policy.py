@@ -4,11 +4,14 @@
 configs), rebuilds the network and the observation normaliser from the saved arrays and
 returns a ``LearnedPolicy``: the deterministic mean action, mapped to a base command. The
 method's input function is rebuilt too, so ``sp_fp`` is the ``gt_rl`` run loaded with the
-self-aware predictor in place of the ground truth.
+self-aware predictor in place of the ground truth. A method with memory (``rnn_rl``) is
+trained by recurrent PPO and loaded as a ``MemoryPolicy``: ``learner(method)`` is the one
+place that picks the trainer and the policy class from ``Method.memory``.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -21,6 +24,8 @@ from dyncatch.rl.config import PPOCfg, validate_ppo
 from dyncatch.rl.methods import GROUND_TRUTH, GROUND_TRUTH_READING, METHODS, MethodObs, get_method
 from dyncatch.rl.networks import ActorCritic
 from dyncatch.rl.normalize import RunningNorm
+from dyncatch.rl.recurrent import MemoryPolicy
+from dyncatch.rl.recurrent_train import make_recurrent_train
 from dyncatch.rl.train import make_train, to_command
 from dyncatch.sim.api import Environment, JaxCatchEnv
 from dyncatch.sim.config import WorldCfg
@@ -64,8 +69,27 @@ class LearnedPolicy:
 
 
 @dataclass(frozen=True)
+class Learner:
+    """How a method's policy is trained and run: ``make_train(env, ppo, obs_fn, mesh) ->
+    (init, iterate, net)`` and the policy class built as ``policy(net, params, norm, obs_fn,
+    env)``."""
+
+    make_train: Callable
+    policy: type[LearnedPolicy] | type[MemoryPolicy]
+
+
+FEED_FORWARD = Learner(make_train, LearnedPolicy)
+RECURRENT = Learner(make_recurrent_train, MemoryPolicy)
+
+
+def learner(method: str) -> Learner:
+    """The learner of a method by name: recurrent PPO where ``Method.memory``."""
+    return RECURRENT if get_method(method).memory else FEED_FORWARD
+
+
+@dataclass(frozen=True)
 class Run:
-    policy: LearnedPolicy
+    policy: LearnedPolicy | MemoryPolicy
     method: str
     """The method evaluated (``sp_fp`` for a ``gt_rl`` run evaluated with the predictor)."""
     trained_method: str
@@ -173,10 +197,11 @@ def load_run(
         else obs_fn
     )
     env = JaxCatchEnv(world)
-    init, _, net = make_train(env, ppo, train_fn)
+    how = learner(trained)
+    init, _, net = how.make_train(env, ppo, train_fn)
     template = jax.eval_shape(init, jax.random.key(0))
     # Only what the policy needs: the environment's part of the state may have changed
     # shape since training (a scene added a field) without changing the policy.
     got, _ = load_fields(path, template, ("params", "norm"))
-    policy = LearnedPolicy(net, got["params"], got["norm"], obs_fn, env)
+    policy = how.policy(net, got["params"], got["norm"], obs_fn, env)
     return Run(policy, method, trained, world.target.behavior, world, header)

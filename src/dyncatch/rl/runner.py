@@ -27,9 +27,9 @@ from dyncatch.rl.config import PPOCfg, validate_ppo
 from dyncatch.rl.guard import check_finite
 from dyncatch.rl.logging import LoggerName, MetricLog, validate_loggers
 from dyncatch.rl.methods import GROUND_TRUTH_READING, GroundTruthReading, MethodName, get_method
-from dyncatch.rl.policy import CHECKPOINT, TRAIN_FORMAT, LearnedPolicy
+from dyncatch.rl.policy import CHECKPOINT, TRAIN_FORMAT, learner
 from dyncatch.rl.sharding import batch_mesh, state_shardings, validate_mesh
-from dyncatch.rl.train import TrainState, make_train
+from dyncatch.rl.train import TrainState
 from dyncatch.sim.api import Environment, JaxCatchEnv
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.validate import validate_speeds, validate_world
@@ -168,7 +168,10 @@ class TrainRunner:
         )
         self.mesh = mesh if mesh is not None else batch_mesh()
         validate_mesh(self.ppo, self.mesh.size)
-        init, iterate, self.net = make_train(self.env, self.ppo, self.obs_fn, self.mesh)
+        self.learner = learner(cfg.method)
+        init, iterate, self.net = self.learner.make_train(
+            self.env, self.ppo, self.obs_fn, self.mesh
+        )
         self.shardings = state_shardings(jax.eval_shape(init, jax.random.key(0)), self.mesh)
         whole = jax.sharding.NamedSharding(self.mesh, jax.sharding.PartitionSpec())
         self._init = jax.jit(init, out_shardings=self.shardings)
@@ -209,7 +212,7 @@ class TrainRunner:
         """Unbiased success and catch time of the mean-action policy at ``eval_speed_mps``,
         on evaluation seeds disjoint from training (the same seeds at every call)."""
 
-        policy = LearnedPolicy(self.net, ts.params, ts.norm, self.obs_fn, self.env)
+        policy = self.learner.policy(self.net, ts.params, ts.norm, self.obs_fn, self.env)
         key = jax.random.fold_in(jax.random.key(self.cfg.seed), EVAL_STREAM)
         env = self.env.with_world(self.env.world.with_speed(self.cfg.eval_speed_mps))
         out = jax.device_get(run_episodes(policy, key, env, self.cfg.eval_episodes))

@@ -29,7 +29,7 @@ from dyncatch.rl.guard import check_finite
 from dyncatch.rl.logging import MetricLog
 from dyncatch.rl.runner import TrainRunCfg, TrainRunner, eval_due, seed_cfgs
 from dyncatch.rl.sharding import state_shardings
-from dyncatch.rl.train import TrainState, make_train
+from dyncatch.rl.train import TrainState
 from dyncatch.sim.api import Environment
 from dyncatch.utils.progress import NoProgress, Progress
 
@@ -93,7 +93,7 @@ class SeedGroupRunner:
         self.runners = [TrainRunner(c, env, mesh) for c in cfgs]
         first = self.runners[0]
         self.cfg, self.ppo, self.mesh = first.cfg, first.ppo, first.mesh
-        init, iterate, _ = make_train(first.env, first.ppo, first.obs_fn, self.mesh)
+        init, iterate, _ = first.learner.make_train(first.env, first.ppo, first.obs_fn, self.mesh)
         self._init, self._viterate = init, jax.vmap(iterate)
 
     def _compiled(self, n: int):
