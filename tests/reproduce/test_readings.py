@@ -75,6 +75,27 @@ def test_docs_list_every_reading():
             assert f"| `{name}` |" in doc, (page, name)
 
 
+def test_the_new_fields_are_flags_of_their_own():
+    argv = [
+        "reproduce",
+        "--quick",
+        "--world.target.gamma-hold-s",
+        "0.5",
+        "--world.target.beta-reading",
+        "heading_difference",
+        "--world.arm.aim",
+        "sighting",
+        "--world.observation.no-staleness-inputs",
+    ]
+    w = parse(argv)[1].world
+    assert (w.target.gamma_hold_s, w.target.beta_reading, w.arm.aim) == (
+        0.5,
+        "heading_difference",
+        "sighting",
+    )
+    assert w.observation.staleness_inputs is False
+
+
 def test_paper_literal_combines_the_literal_readings_and_flags_still_override():
     assert "eq9_per_step" not in PAPER_LITERAL  # no method learns under it (docs/fidelity.md)
     argv = ["reproduce", "--quick", "--setting", "paper_literal", "--train-steps", "100000"]
