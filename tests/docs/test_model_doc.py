@@ -30,7 +30,9 @@ def test_every_constant_has_a_row_with_its_default(group, name, default):
     ]
     assert rows, f"docs/model.md and docs/scenes.md have no table row for {group}.{name}"
     cells = " ".join(rows)
-    if isinstance(default, str):
+    if isinstance(default, bool):
+        assert str(default) in cells, f"{group}.{name} = {default} not in: {cells}"
+    elif isinstance(default, str):
         assert default in cells
     elif isinstance(default, tuple):
         numbers = [float(x) for x in re.findall(r"-?\d+(?:\.\d+)?", cells)]

@@ -87,6 +87,9 @@ def test_worlds_the_full_body_cannot_run_are_refused():
         check_world(WorldCfg().with_scene("arena"), FullBodyCfg())
     with pytest.raises(ValueError, match="200"):
         check_world(WorldCfg(), FullBodyCfg(control_hz=100.0))
+    sighting = WorldCfg().replace(arm=WorldCfg().arm.replace(aim="sighting"))
+    with pytest.raises(ValueError, match="arm.aim"):
+        check_world(sighting, FullBodyCfg())
 
 
 # Extended (make test-all): two episodes of walking up to a target cost several seconds of

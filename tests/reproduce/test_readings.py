@@ -1,10 +1,12 @@
 """Each named reading changes exactly the fields it names, and flags still override it."""
 
+import math
+
 import pytest
 
 from dyncatch.cli.main import parse
 from dyncatch.reproduce.plan import PROFILES
-from dyncatch.reproduce.readings import READINGS, apply_readings, setting_name
+from dyncatch.reproduce.readings import PAPER_LITERAL, READINGS, apply_readings, setting_name
 from dyncatch.utils.config_io import config_diff
 
 EXPECTED = {
@@ -24,7 +26,13 @@ EXPECTED = {
         "world.base.max_yaw_accel_rps2": (10.0, 9.5),
     },
     "paper_budget": {"train_steps": (4_000_000, 20_000_000)},
+    "gamma_held": {"world.target.gamma_hold_s": (0.0, 0.5)},
+    "paper_observation": {"world.observation.staleness_inputs": (True, False)},
+    "fov_half_angle": {"world.sensor.fov_rad": (math.radians(120.0), math.radians(240.0))},
+    "beta_heading": {"world.target.beta_reading": ("bearing", "heading_difference")},
+    "arm_on_sighting": {"world.arm.aim": ("true", "sighting")},
 }
+EXPECTED["paper_literal"] = {k: v for name in PAPER_LITERAL for k, v in EXPECTED[name].items()}
 
 
 def test_every_reading_is_documented_here():
@@ -65,3 +73,38 @@ def test_docs_list_every_reading():
         doc = (docs / page).read_text()
         for name in READINGS:
             assert f"| `{name}` |" in doc, (page, name)
+
+
+def test_the_new_fields_are_flags_of_their_own():
+    argv = [
+        "reproduce",
+        "--quick",
+        "--world.target.gamma-hold-s",
+        "0.5",
+        "--world.target.beta-reading",
+        "heading_difference",
+        "--world.arm.aim",
+        "sighting",
+        "--world.observation.no-staleness-inputs",
+    ]
+    w = parse(argv)[1].world
+    assert (w.target.gamma_hold_s, w.target.beta_reading, w.arm.aim) == (
+        0.5,
+        "heading_difference",
+        "sighting",
+    )
+    assert w.observation.staleness_inputs is False
+
+
+def test_paper_literal_combines_the_literal_readings_and_flags_still_override():
+    assert "eq9_per_step" not in PAPER_LITERAL  # no method learns under it (docs/fidelity.md)
+    argv = ["reproduce", "--quick", "--setting", "paper_literal", "--train-steps", "100000"]
+    plan = parse(argv)[1]
+    assert plan.setting == ("paper_literal",) and plan.train_steps == 100_000
+    w = plan.world
+    assert (w.target.gamma_hold_s, w.arm.aim, w.reward.success_per) == (
+        0.5,
+        "sighting",
+        "every_step",
+    )
+    assert not w.observation.staleness_inputs

@@ -41,6 +41,7 @@ DEFAULTS = {
     "evade_radius_m": 3.0,
     "evade_angle_rad": math.radians(60.0),
     "gamma_max_rad": math.radians(22.5),
+    "gamma_hold_s": 0.0,
     "random_turn_max_rad": math.radians(90.0),
     "random_turn_mean_interval_s": 1.0,
     "random_turn_hold_s": 0.5,
@@ -68,13 +69,15 @@ class TestComposedTargetCfg:
             "evade_radius_m",
             "evade_angle_rad",
             "gamma_max_rad",
+            "gamma_hold_s",
+            "beta_reading",
             "random_turn_max_rad",
             "random_turn_mean_interval_s",
             "random_turn_hold_s",
         ]
         assert BEHAVIORS["circle"].param_names == ("circle_radius_m",)
         assert BEHAVIORS["bounce"].param_names == ()
-        assert BEHAVIORS["random_reactive"].param_names[:3] == tuple(_names(ReactiveCfg))
+        assert BEHAVIORS["random_reactive"].param_names[:5] == tuple(_names(ReactiveCfg))
 
     def test_is_an_instance_of_every_behaviours_cfg_with_the_same_defaults(self):
         target = WorldCfg().target
@@ -83,14 +86,17 @@ class TestComposedTargetCfg:
             # Each behaviour's own config, made alone, has the defaults the composition holds.
             own = {f.name: getattr(cls(), f.name) for f in dataclasses.fields(cls)}
             own.pop("behavior", None)
+            own.pop("beta_reading", None)  # static, a string: checked below
             assert own == pytest.approx({k: DEFAULTS[k] for k in own})
         assert {k: getattr(target, k) for k in DEFAULTS} == pytest.approx(DEFAULTS)
+        assert target.beta_reading == ReactiveCfg().beta_reading == "bearing"
 
     def test_behavior_is_static_and_the_parameters_are_leaves(self):
         leaves, treedef = jax.tree.flatten(WorldCfg().target)
-        # The 12 numbers of DEFAULTS in field order; the behaviour name is in the treedef.
+        # The 13 numbers of DEFAULTS in field order; the behaviour name and the beta reading
+        # are in the treedef.
         assert leaves == pytest.approx(list(DEFAULTS.values()))
-        assert "reactive" in str(treedef)
+        assert "reactive" in str(treedef) and "bearing" in str(treedef)
 
     def test_the_cli_and_headers_keep_the_target_dot_field_names(self):
         world = tyro.cli(WorldCfg, args=["--target.evade-radius-m", "1.5"])

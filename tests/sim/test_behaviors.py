@@ -10,6 +10,7 @@ from dyncatch.sim import env
 from dyncatch.sim.behaviors import (
     BEHAVIORS,
     CircleState,
+    GammaState,
     NoState,
     RandomReactiveState,
     get_behavior,
@@ -130,10 +131,15 @@ def test_circle_state_is_a_direction_of_plus_or_minus_one_that_never_changes():
 
 
 def test_stateless_behaviors_carry_an_empty_state():
-    for name in ("bounce", "reactive"):
-        s = jax.jit(env.reset)(jax.random.key(0), CFG.with_behavior(name))
-        assert isinstance(s.target.behavior_state, NoState)
-        assert jax.tree.leaves(s.target.behavior_state) == []
+    s = jax.jit(env.reset)(jax.random.key(0), CFG.with_behavior("bounce"))
+    assert isinstance(s.target.behavior_state, NoState)
+    assert jax.tree.leaves(s.target.behavior_state) == []
+
+
+def test_reactive_carries_its_gamma_none_drawn_at_reset():
+    s = jax.jit(env.reset)(jax.random.key(0), CFG.with_behavior("reactive"))
+    assert isinstance(s.target.behavior_state, GammaState)
+    assert float(s.target.behavior_state.gamma_rad) == int(s.target.behavior_state.left_steps) == 0
 
 
 def test_random_reactive_adds_held_offsets():

@@ -68,6 +68,11 @@ def check_world(world: WorldCfg, fullbody: FullBodyCfg) -> None:
             f"--backend mujoco runs on flat open ground only; scene {world.scene.name!r} has "
             "walls, obstacles or terrain: use --world.scene.name open_plane"
         )
+    if world.arm.aim != "true":
+        raise ValueError(
+            f"--backend mujoco aims the arm at the target itself; arm.aim = {world.arm.aim!r} "
+            "is a reading of the JAX world only: use --world.arm.aim true"
+        )
     rate = world.episode.control_hz * world.episode.physics_substeps
     if abs(rate - fullbody.control_hz) > 1e-6:
         raise ValueError(

@@ -32,6 +32,7 @@ from flax import struct
 from dyncatch.predictor.features import history_from_state
 from dyncatch.predictor.model import Predictor
 from dyncatch.predictor.tracker.model import TRACKER, Tracker
+from dyncatch.sim.api import obs_layout
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.geometry import world_to_body
 from dyncatch.sim.state import EnvState, Obs
@@ -329,7 +330,7 @@ class MethodObs:
             extra = ()
         else:
             extra = TRACK_INPUTS if self.input_layout == "track" else VELOCITY_INPUTS
-        return Obs.layout(world.scene.scan_rays) + tuple((name, size) for name, size, _ in extra)
+        return obs_layout(world) + tuple((name, size) for name, size, _ in extra)
 
     def __call__(self, state: EnvState, obs: Obs) -> jax.Array:
         """The policy's input vector, (D,), of a stateless input: ``obs.flat`` then the

@@ -22,9 +22,15 @@ from dyncatch.sim.obs_bounds import obs_bounds
 from dyncatch.sim.state import ACTION_DIM, EnvState, Obs
 
 
+def obs_layout(world: WorldCfg) -> tuple[tuple[str, int], ...]:
+    """``Obs.layout`` in ``world``: its scan's rays and whether the staleness inputs are in."""
+    return Obs.layout(world.scene.scan_rays, world.observation.staleness_inputs)
+
+
 def obs_dim(world: WorldCfg) -> int:
-    """Length of ``Obs.flat`` in ``world`` (its range scan has ``world.scene.scan_rays``)."""
-    return sum(size for _, size in Obs.layout(world.scene.scan_rays))
+    """Length of ``Obs.flat`` in ``world`` (its range scan has ``world.scene.scan_rays``;
+    ``world.observation`` says whether the staleness inputs are in)."""
+    return sum(size for _, size in obs_layout(world))
 
 
 OBS_DIM = obs_dim(WorldCfg())

@@ -80,6 +80,9 @@ class BaseCfg:
         return 0.5 * (self.length_m**2 + self.width_m**2) ** 0.5
 
 
+ArmAim = Literal["true", "sighting"]
+
+
 @struct.dataclass
 class ArmCfg:
     """A 6-DOF arm with Z1-like geometry, driven by damped-least-squares IK.
@@ -120,6 +123,11 @@ class ArmCfg:
     """The catch point sits this far below the gripper."""
     catch_radius_m: float = 0.05
     """Success: target centre within this distance of the catch point (d_suc)."""
+    aim: ArmAim = static("true")
+    """What the arm reaches for (x_goal,ee of IV-A): ``true``, the target itself at every
+    200 Hz sub-step (the default, "x_goal,ee = x_obj"); ``sighting`` (reading
+    ``arm_on_sighting``), the last delivered camera sighting, once one exists, and the
+    activation distance is measured to it (the JAX world only)."""
 
 
 @struct.dataclass
@@ -141,6 +149,17 @@ class SensorCfg:
     def period_s(self) -> float:
         """Time between camera frames, 1 / f_vis."""
         return 1.0 / self.rate_hz
+
+
+@struct.dataclass
+class ObservationCfg:
+    """What of the sensor's state the policy's observation (``sim.state.Obs``) carries."""
+
+    staleness_inputs: bool = static(True)
+    """Whether ``Obs.flat`` (every method's policy input) carries ``time_since_seen_s`` and
+    ``visible``, the age of the held sighting and whether the last frame saw the target
+    (the default); False drops them, the paper's state s (IV-A) has no age of the sighting
+    (reading ``paper_observation``). Scripted policies still read them from ``Obs``."""
 
 
 VisibilityReading = Literal["per_second", "per_step"]
@@ -220,6 +239,7 @@ class WorldCfg:
     arm: ArmCfg = ArmCfg()
     target: TargetCfg = TargetCfg()
     sensor: SensorCfg = SensorCfg()
+    observation: ObservationCfg = ObservationCfg()
     reward: RewardCfg = RewardCfg()
     episode: EpisodeCfg = EpisodeCfg()
 

@@ -36,7 +36,7 @@ from dyncatch.sim.reward import reward_terms, total_reward
 from dyncatch.sim.scan import range_scan
 from dyncatch.sim.scenes import get_scene
 from dyncatch.sim.sensing import initial_sensor, sensor_tick, takes_frame
-from dyncatch.sim.state import EnvState, Obs, RobotState, TargetState
+from dyncatch.sim.state import EnvState, Obs, RobotState, SensorState, TargetState
 from dyncatch.sim.target import move, steer
 
 _ROBOT_PLACEMENT_TRIES = 8
@@ -253,43 +253,62 @@ def _arm_goal(robot_xy, robot_yaw, target_xy, cfg: WorldCfg):
     return goal_base, jnp.sum(rel * rel) <= cfg.arm.activation_distance_m**2
 
 
-def _arm_along(q, robot_xy, robot_yaw, target_xy, cfg: WorldCfg, dt_s, reach: bool):
+def _arm_along(q, robot_xy, robot_yaw, target_xy, cfg: WorldCfg, dt_s, aim=None, *, reach: bool):
     """The arm over one control step's sub-steps, along the bodies' poses at the start of each
     (``robot_xy`` (n, 2), ``robot_yaw`` (n,), ``target_xy`` (n, 2)): the catch is checked
-    before each arm update, then the arm reaches (``reach``, where the target is near) or
-    folds. Returns the joints and the smallest catch-point error over the sub-steps."""
+    before each arm update, then the arm reaches (``reach``, where its aim is near) or folds.
+    ``aim`` is None (the arm aims at the target) or ``(aim_xy (n, 2), aim_ok ())`` for
+    ``arm.aim = sighting`` (``_aim``). Returns the joints and the smallest catch-point error
+    over the sub-steps."""
 
     def substep(carry, pose):
-        return _arm_substep(carry, pose, cfg, dt_s, reach), None
+        return _arm_substep(carry, pose, cfg, dt_s, reach, None if aim is None else aim[1]), None
 
     init = (q, jnp.full((), jnp.inf))
-    return jax.lax.scan(substep, init, (robot_xy, robot_yaw, target_xy))[0]
+    poses = (robot_xy, robot_yaw, target_xy) + (() if aim is None else (aim[0],))
+    return jax.lax.scan(substep, init, poses)[0]
 
 
-def _arm_substep(carry, pose, cfg: WorldCfg, dt_s, reach: bool):
-    """One sub-step of ``_arm_along``: ``carry`` is (joints, smallest error so far)."""
+def _arm_substep(carry, pose, cfg: WorldCfg, dt_s, reach: bool, aim_ok=None):
+    """One sub-step of ``_arm_along``: ``carry`` is (joints, smallest error so far), ``pose``
+    (robot xy, yaw, target xy[, aim xy]); ``aim_ok`` () bool where the pose has an aim."""
     q, best_err = carry
-    xy, yaw, txy = pose
+    xy, yaw, txy = pose[:3]
     gripper_base = gripper_in_base(q, cfg.arm, cfg.base)
     best_err = jnp.minimum(best_err, _catch_error_at(gripper_base, xy, yaw, txy, cfg))
     if reach:
-        goal_base, active = _arm_goal(xy, yaw, txy, cfg)
+        goal_base, active = _arm_goal(xy, yaw, pose[3] if len(pose) > 3 else txy, cfg)
+        if aim_ok is not None:
+            active = active & aim_ok
         q = arm_substep(q, gripper_base, goal_base, active, cfg.arm, dt_s)
     else:
         q = stow_substep(q, cfg.arm, dt_s)
     return q, best_err
 
 
-def _arm_over_step(q, robot_xy, robot_yaw, target_xy, cfg: WorldCfg, dt_s, folded=None):
+def _aim(sensor: SensorState, target_xy: jax.Array, cfg: WorldCfg):
+    """What the arm reaches for over a step's sub-steps (``arm.aim``): None for the target
+    itself, else ``(aim_xy (n, 2), aim_ok ())``, the last delivered sighting (held over the
+    step) and whether there is one."""
+    if cfg.arm.aim == "true":
+        return None
+    return jnp.broadcast_to(sensor.obs_xy_m, target_xy.shape), sensor.ever_seen
+
+
+def _arm_over_step(q, robot_xy, robot_yaw, target_xy, cfg: WorldCfg, dt_s, folded=None, aim=None):
     """``_arm_along`` with the IK paid for only where the arm is active at some sub-step:
     under ``vmap`` those environments are gathered once per control step (``sim.gate``); the
     others fold toward the stow pose, which is what the IK's branch does for them too.
-    ``folded`` is ``_arm_along(..., reach=False)`` where the caller has it already."""
-    near = jnp.any(jax.vmap(lambda *p: _arm_goal(*p, cfg)[1])(robot_xy, robot_yaw, target_xy))
+    ``folded`` is ``_arm_along(..., reach=False)`` where the caller has it already; ``aim``
+    as ``_arm_along``'s."""
+    aim_xy = target_xy if aim is None else aim[0]
+    near = jnp.any(jax.vmap(lambda *p: _arm_goal(*p, cfg)[1])(robot_xy, robot_yaw, aim_xy))
+    if aim is not None:
+        near = near & aim[1]
     if folded is None:
         folded = _arm_along(q, robot_xy, robot_yaw, target_xy, cfg, dt_s, reach=False)
     reaching = where_active(partial(_arm_along, reach=True), arm.IK_COMPACT_FRACTIONS)(
-        near, q, robot_xy, robot_yaw, target_xy, cfg, dt_s
+        near, q, robot_xy, robot_yaw, target_xy, cfg, dt_s, aim
     )
     return jax.tree.map(lambda a, b: jnp.where(near, a, b), reaching, folded)
 
@@ -310,6 +329,7 @@ def observe(state: EnvState, cfg: WorldCfg) -> Obs:
             obstacles_in_play(state, cfg),
             robot.xy_m,
         ),
+        staleness=cfg.observation.staleness_inputs,
     )
 
 
@@ -364,7 +384,14 @@ def step(state: EnvState, action: jax.Array, cfg: WorldCfg):
         bodies, init, length=n_sub
     )
     q, best_err = _arm_over_step(
-        robot.arm_q_rad, robot_xy, robot_yaw, target_xy, cfg, dt_s / n_sub, folded
+        robot.arm_q_rad,
+        robot_xy,
+        robot_yaw,
+        target_xy,
+        cfg,
+        dt_s / n_sub,
+        folded,
+        _aim(state.sensor, target_xy, cfg),
     )
     robot = robot.replace(arm_q_rad=q)
     gripper = gripper_world(robot, gripper_in_base(q, cfg.arm, cfg.base))

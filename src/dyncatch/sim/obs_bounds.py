@@ -65,6 +65,7 @@ def obs_bounds(cfg: WorldCfg) -> tuple[Obs, Obs]:
         time_since_seen_s=full((), 0.0),
         visible=full((), 0.0),
         scan_m=full((n_rays,), 0.0),
+        staleness=cfg.observation.staleness_inputs,
     )
     high = Obs(
         robot_vel_body_mps=cmd_high[:2],
@@ -73,5 +74,6 @@ def obs_bounds(cfg: WorldCfg) -> tuple[Obs, Obs]:
         time_since_seen_s=full((), inf),
         visible=full((), 1.0),
         scan_m=jnp.full((n_rays,), scan_cap),
+        staleness=cfg.observation.staleness_inputs,
     )
     return low, high

@@ -109,10 +109,11 @@ SCAN_RAYS = "scan_rays"
 """Stands in an ``Obs`` field's shape for the world's ray count, ``SceneCfg.scan_rays``."""
 
 
-def obs_field(shape: tuple[int | str, ...]):
+def obs_field(shape: tuple[int | str, ...], staleness: bool = False):
     """An ``Obs`` field of per-environment ``shape`` (``SCAN_RAYS`` for the world's ray
-    count); it takes prod(shape) slots of ``flat``."""
-    return struct.field(metadata={"shape": shape})
+    count); it takes prod(shape) slots of ``flat`` (none where it is a ``staleness`` input
+    and the observation drops those, ``ObservationCfg.staleness_inputs``)."""
+    return struct.field(metadata={"shape": shape, "staleness": staleness})
 
 
 @struct.dataclass
@@ -128,29 +129,41 @@ class Obs:
     target_obs_body_m: jax.Array = obs_field((2,))
     """Last observed target position in the current base frame, (2,); before any sighting
     the held point is the robot's start position (zeros until it moves)."""
-    time_since_seen_s: jax.Array = obs_field(())
+    time_since_seen_s: jax.Array = obs_field((), staleness=True)
     """Time since the capture of the last sighting (episode time if never seen), ()."""
-    visible: jax.Array = obs_field(())
+    visible: jax.Array = obs_field((), staleness=True)
     """1.0 if the last camera frame saw the target."""
     scan_m: jax.Array = obs_field((SCAN_RAYS,))
     """s_env (eq. 3): range scan, the distance along each ray from the base centre to the
     nearest wall or obstacle, capped at ``scene.scan_range_m`` (the cap where nothing is hit),
     (scene.scan_rays,)."""
+    staleness: bool = struct.field(pytree_node=False, default=True, kw_only=True)
+    """Whether ``flat`` carries the staleness inputs (``time_since_seen_s``, ``visible``):
+    the world's ``observation.staleness_inputs``. The fields are there either way."""
+
+    @staticmethod
+    def _in_flat(f: dataclasses.Field, staleness: bool) -> bool:
+        return "shape" in f.metadata and (staleness or not f.metadata["staleness"])
 
     @classmethod
-    def layout(cls, scan_rays: int) -> tuple[tuple[str, int], ...]:
-        """(field name, number of slots in ``flat``) of every field, in ``flat``'s order, for
-        a scan of ``scan_rays`` rays (the world's ``scene.scan_rays``)."""
+    def layout(cls, scan_rays: int, staleness: bool = True) -> tuple[tuple[str, int], ...]:
+        """(field name, number of slots in ``flat``) of every field in ``flat``, in its
+        order, for a scan of ``scan_rays`` rays (the world's ``scene.scan_rays``) and with or
+        without the staleness inputs (the world's ``observation.staleness_inputs``)."""
         return tuple(
             (f.name, math.prod(scan_rays if d == SCAN_RAYS else d for d in f.metadata["shape"]))
             for f in dataclasses.fields(cls)
+            if cls._in_flat(f, staleness)
         )
 
     @property
     def flat(self) -> jax.Array:
-        """Every field flattened and concatenated in declaration order, (..., D)."""
+        """The fields flattened and concatenated in declaration order, (..., D) (without the
+        staleness inputs where ``staleness`` is False)."""
         parts = []
         for f in dataclasses.fields(self):
+            if not self._in_flat(f, self.staleness):
+                continue
             x, shape = getattr(self, f.name), f.metadata["shape"]
             batch = x.shape[: x.ndim - len(shape)]
             parts.append(x.reshape(*batch, -1) if shape else x.reshape(*batch, 1))

@@ -93,6 +93,7 @@ def validate_world(cfg: WorldCfg) -> WorldCfg:
         ),
         (0 < s.fov_rad <= 6.2832, "sensor.fov_rad", "must lie in (0, 2*pi]"),
         (s.range_m > 0, "sensor.range_m", "must be positive"),
+        (a.aim in ("true", "sighting"), "arm.aim", "must be true or sighting"),
         (
             0 <= s.latency_s < period_s,
             "sensor.latency_s",

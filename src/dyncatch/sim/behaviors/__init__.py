@@ -20,7 +20,7 @@ from dyncatch.sim.behaviors.random_reactive import (
     RandomReactiveCfg,
     RandomReactiveState,
 )
-from dyncatch.sim.behaviors.reactive import REACTIVE, ReactiveCfg
+from dyncatch.sim.behaviors.reactive import REACTIVE, GammaState, ReactiveCfg
 
 BEHAVIORS.update(
     {
@@ -92,6 +92,7 @@ __all__ = [
     "BehaviorName",
     "CircleCfg",
     "CircleState",
+    "GammaState",
     "NoState",
     "RandomReactiveCfg",
     "RandomReactiveState",

@@ -10,7 +10,13 @@ import jax.numpy as jnp
 from flax import struct
 
 from dyncatch.sim.behaviors.base import Behavior, uniform_init
-from dyncatch.sim.behaviors.reactive import ReactiveCfg, reactive_heading, reactive_validate
+from dyncatch.sim.behaviors.reactive import (
+    GammaState,
+    ReactiveCfg,
+    initial_gamma,
+    reactive_turn,
+    reactive_validate,
+)
 from dyncatch.sim.state import RobotState, TargetState
 
 if TYPE_CHECKING:
@@ -37,6 +43,8 @@ class RandomReactiveState:
     """Time until the next offset is drawn, (); <= 0 draws one at the next step."""
     hold_left_s: jax.Array
     """Time the current offset still applies, ()."""
+    gamma: GammaState
+    """Reactive's gamma (``target.gamma_hold_s``)."""
 
 
 def random_reactive_init(
@@ -45,17 +53,17 @@ def random_reactive_init(
     """Placed as reactive; no offset yet, the first one is drawn at the first step."""
     xy, heading, _ = uniform_init(key, cfg)
     zero = jnp.zeros(())
-    return xy, heading, RandomReactiveState(zero, zero, zero)
+    return xy, heading, RandomReactiveState(zero, zero, zero, initial_gamma())
 
 
 def random_reactive_heading(
     target: TargetState, robot: RobotState, cfg: WorldCfg, key: jax.Array
 ) -> tuple[jax.Array, RandomReactiveState]:
     k_react, k_offset, k_interval = jax.random.split(key, 3)
-    heading, _ = reactive_heading(target, robot, cfg, k_react)
+    state: RandomReactiveState = target.behavior_state
+    heading, gamma = reactive_turn(target, robot, state.gamma, cfg, k_react)
     tc = cfg.target
     dt = cfg.episode.dt_s
-    state: RandomReactiveState = target.behavior_state
     next_in, hold_left = state.next_change_in_s - dt, state.hold_left_s - dt
     change = next_in <= 0.0
     new_offset = jax.random.uniform(
@@ -66,7 +74,7 @@ def random_reactive_heading(
     next_in = jnp.where(change, interval, next_in)
     hold_left = jnp.where(change, tc.random_turn_hold_s, hold_left)
     applied = jnp.where(hold_left > 0.0, offset, 0.0)
-    return heading + applied, RandomReactiveState(offset, next_in, hold_left)
+    return heading + applied, RandomReactiveState(offset, next_in, hold_left, gamma)
 
 
 RANDOM_REACTIVE = Behavior(
