@@ -18,8 +18,9 @@ def elu(x: jax.Array) -> jax.Array:
     are bit-identical to ``jax.nn.elu`` (``tests/rl/test_networks.py``). ``jax.nn.elu``'s
     backward differentiates through two ``where``s and keeps the input and the mask alive;
     this one keeps only ``y`` (which the next layer's weight gradient keeps anyway) and
-    does one multiply: a forward + backward of the actor and critic took 0.64 of the time
-    (``benchmarks/ppo_profile.py``, ``grad_elu`` against ``grad_fast_elu``)."""
+    does one multiply: a forward + backward of the actor and critic alone takes about 0.66
+    of the time (``benchmarks/ppo_profile.py``, ``grad_fast_elu`` against ``grad_elu``), a
+    whole update epoch about 0.93 (docs/performance.md, "PPO throughput")."""
     return jnp.where(x > 0, x, jnp.expm1(jnp.minimum(x, 0.0)))
 
 
