@@ -2,14 +2,17 @@
 
 Each rung is one jitted function on the default minibatch (4096 samples of the world's
 observation, actor and critic 256-256-128), timed best of ``--repeats`` chains of
-``--reps`` calls in one process, beside the same-run GEMM peak of ``dyncatch bench ppo``
-(``bench.ppo_bench.gemm_peak_gflops``). Every rung adds one thing to the one before:
+``--reps`` calls in one process (the rungs interleaved round by round), beside the same-run
+GEMM peak of ``dyncatch bench ppo`` (``bench.ppo_bench.gemm_peak_gflops``). Every rung adds
+one thing to the one before:
 
 1. ``gemms``: only the matrix products a forward + backward pass of both networks does
    (X W, dY W^T and X^T dY per layer; no first-layer input gradient), chained;
 2. ``grad_linear``: ``jax.grad`` of the two MLPs without activations (the same products,
    as XLA emits them for a real backward pass, plus biases);
-3. ``grad_elu``: with the ELU and its derivative between the products (the real networks);
+3. ``grad_elu``: with ``jax.nn.elu`` and its derivative between the products;
+3b. ``grad_fast_elu``: the same with ``rl.networks.elu`` (the networks' ELU: the same numbers,
+   the derivative read from the output), so the two rungs differ only in the activation's cost;
 4. ``grad_ppo``: the PPO loss (clipped surrogate, clipped value, entropy, KL) through
    ``rl.networks.ActorCritic``;
 5. ``step``: plus gradient clipping and Adam (``rl.train``'s optimiser), one minibatch step;
@@ -36,7 +39,7 @@ import optax
 
 from dyncatch.bench.ppo_bench import gemm_peak_gflops, mlp_flops
 from dyncatch.rl.config import PPOCfg
-from dyncatch.rl.networks import ActorCritic
+from dyncatch.rl.networks import ActorCritic, elu
 from dyncatch.rl.train import minibatch_loss
 from dyncatch.sim.api import as_env
 from dyncatch.sim.config import WorldCfg
@@ -44,17 +47,20 @@ from dyncatch.sim.config import WorldCfg
 ACTION_DIM = 3
 
 
-def _time(fn, args, reps: int, repeats: int) -> float:
-    """Best seconds per call of a jitted ``fn`` over ``repeats`` chains of ``reps`` calls."""
-    out = fn(*args)
-    jax.block_until_ready(out)
-    best = float("inf")
+def _time_all(ladder: dict, reps: int, repeats: int) -> dict[str, float]:
+    """Best seconds per call of each rung's jitted function over ``repeats`` chains of
+    ``reps`` calls, the rungs interleaved (one chain of each per round), so that a load
+    from other processes falls on every rung alike."""
+    for fn, args, _ in ladder.values():
+        jax.block_until_ready(fn(*args))
+    best = dict.fromkeys(ladder, float("inf"))
     for _ in range(repeats):
-        t0 = time.perf_counter()
-        for _ in range(reps):
-            out = fn(*args)
-        jax.block_until_ready(out)
-        best = min(best, (time.perf_counter() - t0) / reps)
+        for name, (fn, args, _) in ladder.items():
+            t0 = time.perf_counter()
+            for _ in range(reps):
+                out = fn(*args)
+            jax.block_until_ready(out)
+            best[name] = min(best[name], (time.perf_counter() - t0) / reps)
     return best
 
 
@@ -155,6 +161,7 @@ def rungs(obs_dim: int, ppo: PPOCfg, rows: int) -> dict:
         "gemms": (gemms, (x, actor, critic), 1),
         "grad_linear": (two_mlps(lambda h: h), ((actor, critic), x), 1),
         "grad_elu": (two_mlps(jax.nn.elu), ((actor, critic), x), 1),
+        "grad_fast_elu": (two_mlps(elu), ((actor, critic), x), 1),
         "grad_ppo": (grad_ppo, (params, mb), 1),
         "step": (step, (params, opt_state, mb), 1),
         "epoch": (epoch, (params, opt_state, batch, key), n_mb),
@@ -175,8 +182,9 @@ def run(argv=None) -> dict:
     hidden = max(ppo.hidden_sizes)
     peak = max(gemm_peak_gflops(m, hidden) for m in (1024, 4096))
     out = {"rows": rows, "obs_dim": obs_dim, "gemm_peak_gflops": peak, "rungs": []}
-    for name, (fn, fargs, calls) in ladder.items():
-        dt = _time(fn, fargs, args.reps, args.repeats) / calls
+    times = _time_all(ladder, args.reps, args.repeats)
+    for name, (_, _, calls) in ladder.items():
+        dt = times[name] / calls
         rate = flops / dt / 1e9
         out["rungs"].append(
             {"rung": name, "ms_per_minibatch": 1e3 * dt, "gflops": rate, "of_peak": rate / peak}

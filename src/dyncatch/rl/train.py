@@ -154,6 +154,17 @@ def step_with_final_input(env: Environment, vstep, vinit, env_state, action, obs
     return next_state, next_obs, reward, done, info, final_x, obs_carry
 
 
+def epoch_permutations(key: jax.Array, epochs: int, batch_size: int) -> jax.Array:
+    """(epochs, batch_size) int32: epoch ``i`` visits the batch in the order
+    ``jax.random.permutation(jax.random.split(key, epochs)[i], batch_size)``, bit for bit.
+
+    All are drawn before the first epoch: they depend on no parameter, so XLA is free to
+    sort them beside other work instead of between two epochs' products (a permutation of
+    16,384 is two stable sorts, about 14 ms on one core, measured in isolation)."""
+    keys = jax.random.split(key, epochs)
+    return jax.vmap(jax.random.permutation, in_axes=(0, None))(keys, batch_size)
+
+
 def make_train(
     env: Environment | WorldCfg, ppo: PPOCfg, obs_fn: ObsFn = flat_obs, mesh: Mesh | None = None
 ):
@@ -244,8 +255,7 @@ def make_train(
             updates, opt_state = optimizer.update(grads, opt_state, params)
             return (optax.apply_updates(params, updates), opt_state, lr), metrics
 
-        def epoch(carry, key):
-            perm = jax.random.permutation(key, ppo.batch_size)
+        def epoch(carry, perm):
             shuffled = jax.tree.map(
                 lambda x: constrain(
                     x[perm].reshape(ppo.num_minibatches, ppo.minibatch_size, *x.shape[1:]), 1
@@ -255,10 +265,9 @@ def make_train(
             return jax.lax.scan(minibatch_step, carry, shuffled)
 
         key, k_epochs = jax.random.split(ts.key)
+        perms = epoch_permutations(k_epochs, ppo.update_epochs, ppo.batch_size)
         (params, opt_state, lr), metrics = jax.lax.scan(
-            epoch,
-            (ts.params, ts.opt_state, ts.learning_rate),
-            jax.random.split(k_epochs, ppo.update_epochs),
+            epoch, (ts.params, ts.opt_state, ts.learning_rate), perms
         )
         ts = ts.replace(params=params, opt_state=opt_state, learning_rate=lr, key=key)
         return ts, jax.tree.map(jnp.mean, metrics)
