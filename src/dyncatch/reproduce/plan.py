@@ -53,7 +53,7 @@ class Plan:
     Table I at 1.6 and 1.8 m/s (the primary endpoints; no Table II, Fig. 9, transfer or
     videos). 30 seeds: at the full run's pooled seed SDs (rl 0.23, sp_rl 0.06) the 95 % CI
     half-width on sp_rl - rl is about 0.09, within the 0.10 target; 10 seeds give about
-    0.16."""
+    0.17."""
     out: Path | None = None
     """Results folder (default results/full or results/quick)."""
     setting: tuple[ReadingName, ...] = ()
@@ -134,9 +134,9 @@ class Plan:
     1.8 m/s success with the rooms'); None: the named variant ``drawn``, the speed drawn per
     episode from the world's range, U(0, 1.8) m/s."""
     fig9_episodes: int = 500
-    """Evaluation episodes per Fig. 9 cell (scene, behaviour, row, seed). 500, not Table I's
-    1000: Fig. 9 has 192 cells of 40 s episodes (measured on 2 cores: 13 s per 1000 episodes
-    of plain sp_rl in room_8, 18 s blended). Its CIs are over seeds; a seed's own binomial
+    """Evaluation episodes per Fig. 9 cell (scene, behaviour, row, seed). Fig. 9 has 528
+    cells (10 seeds, 4 behaviours) of 40 s episodes (measured on 2 cores: 13 s per 1000
+    episodes of plain sp_rl in room_8, 18 s blended). Its CIs are over seeds; a seed's own binomial
     error at 500 episodes is at most 0.022 (in the full run, room_8's seeds of blended sp_rl
     on reactive spread less than that, 0.950-0.962, so there it is part of the CI)."""
     fig9_duration_s: float | None = None
