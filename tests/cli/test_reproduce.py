@@ -25,10 +25,9 @@ STRAIGHT = Behavior(
 TINY = [
     "--quick",
     "--behaviors", "straight",
-    # Fig. 6 and Table II default to every registered behaviour (checked below without a
-    # run); fewer columns and rows keep the test small. A Fig. 6 column not trained on
-    # (transfer) costs one compilation per policy; tests/reproduce/test_jobs.py covers it.
-    "--fig6-behaviors", "straight",
+    # Fig. 6 defaults to the behaviours trained on (each policy on its own), Table II to
+    # every registered behaviour (checked below without a run): one row keeps the test
+    # small. The quick profile has no transfer table (tests/reproduce/test_jobs.py has).
     "--table-ii-behaviors", "straight",
     "--train-steps", "256",
     "--episodes", "8",
@@ -157,10 +156,10 @@ def test_a_behaviour_registered_at_run_time_is_a_cli_choice(capsys):
     with straight():
         _, plan = parse(["reproduce", "--quick", "--behaviors", "straight"])
         assert plan.behaviors == ("straight",) and "straight" in plan.table_ii_rows
-        # By default (the quick profile names its two) Fig. 6 and the videos cover every
-        # registered behaviour, and Table II does in both profiles.
+        # Fig. 6 and the videos cover the behaviours trained on (each policy on its own),
+        # and Table II every registered behaviour, in every profile.
         _, full = parse(["reproduce", "--behaviors", "straight"])
-        assert "straight" in full.fig6_columns and "straight" in full.table_ii_rows
+        assert full.fig6_columns == ("straight",) and "straight" in full.table_ii_rows
         _, cfg = parse(["train", "--behavior", "straight"])
         assert cfg.world.target.behavior == "straight"
         _, table = parse(["predictor", "table", "--budgets", "2500"])
@@ -196,6 +195,9 @@ def test_a_profile_sets_defaults_and_every_flag_given_overrides_it():
     # A flag equal to the library default still overrides the profile (it was lost before).
     wide = parse(["reproduce", "--quick", "--ppo.hidden-sizes", "256", "256", "128"])[1]
     assert wide.ppo.hidden_sizes == (256, 256, 128) and wide.quick
+    power = parse(["reproduce", "--power", "--seeds", "20"])[1]
+    assert power.profile == "power" and power.method_names == ("rl", "sp_rl")
+    assert (power.seeds, power.speeds_mps, power.fig9) == (20, (1.6, 1.8), False)
 
 
 def test_the_throwaway_behaviour_steps_like_a_registered_one():

@@ -1,6 +1,7 @@
 """The Fig. 9 stage at a tiny size: its cells agree with a direct evaluation, and it writes
 its table, figure and GIF; the paper's values stand beside ours."""
 
+import dataclasses
 import json
 
 import jax
@@ -43,8 +44,12 @@ def test_cells_agree_with_a_direct_evaluation(stage):
     assert [(r["scene"], r["behavior"], r["method"]) for r in rows] == [
         ("room_4", "reactive", "pursuit+blend"),
     ]
-    world = fig9.scene_world(PLAN.world, "room_4", "reactive", PLAN.fig9_duration_s)
+    speed = PLAN.fig9_speed_mps
+    assert speed == 1.8  # the paper's high speed, fixed, and recorded in each cell
+    world = fig9.scene_world(PLAN.world, "room_4", "reactive", PLAN.fig9_duration_s, speed)
     assert world.episode.duration_s == 1.0 and world.scene.name == "room_4"
+    assert world.target.speed_min_mps == world.target.speed_max_mps == 1.8
+    assert [r["speed_mps"] for r in rows] == [1.8]
     policy = blended(BASELINES["pursuit"](world), world)
     key = fig9.cell_key("room_4", "reactive")
     direct = jax.device_get(run_episodes(policy, key, world, 4, contact_tol_m=fig9.CONTACT_TOL_M))
@@ -106,6 +111,12 @@ def test_a_policys_rows_and_seeds_are_one_job_and_finished_cells_none(tmp_path):
     ]
     first = jobs[0].cells[0]
     assert (first.row, first.deployed.blend, first.deployed.policy.seed) == ("sp_rl", False, 0)
+    assert first.deployed.speed_mps == 1.8 and first.trained_on == "reactive"
+    assert first.deployed.policy.run.parent.parent.name == "reactive"  # its own behaviour
+    drawn = dataclasses.replace(plan, fig9_speed_mps=None)  # the named variant
+    assert fig9.cell_jobs(drawn, tmp_path, fig9.FIG9_ROWS)[0].cells[0].deployed.speed_mps is None
+    world = fig9.scene_world(plan.world, "room_4", "reactive", None, None)
+    assert world.target.speed_min_mps < world.target.speed_max_mps
     first.path.parent.mkdir(parents=True)
     first.path.write_text("{}")
     again = fig9.cell_jobs(plan, tmp_path, fig9.FIG9_ROWS)

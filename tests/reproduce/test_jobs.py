@@ -2,6 +2,7 @@
 vmap-ped run unless ``--no-vmap-seeds``, and nothing at all when everything is done. Each
 job is a small typed spec: it pickles without the plan."""
 
+import dataclasses
 import json
 import pickle
 
@@ -101,14 +102,15 @@ def test_finished_work_makes_no_job_and_is_read_back(tmp_path):
     assert grid_jobs(plan, tmp_path, "fig6", ("reactive",), (1.0,)) == []
     got = grid_rows(plan, tmp_path, "fig6", ("reactive",))
     assert [r["method"] for r in got] == [m for m, _ in policies(plan)]
-    assert {r["trained_on"] for r in got} == {"reactive"}
+    assert {r["trained_on"] for r in got if r["seed"] is not None} == {"reactive"}
+    assert {r["trained_on"] for r in got if r["seed"] is None} == {None}  # baselines
 
 
-def test_a_column_not_trained_on_plays_the_first_behaviours_policy_in_its_own_world(
+def test_the_transfer_table_plays_reactive_trained_policies_in_the_columns_world(
     tmp_path, monkeypatch
 ):
-    """Transfer (Fig. 6's columns beyond the trained behaviours): the policy and predictor
-    come from the first trained behaviour's run, and the episodes are the column's."""
+    """Transfer (an extra table, not Fig. 6): the policy and predictor come from
+    ``transfer_from``'s run, the episodes are the column's, and only trained methods play."""
     import types
 
     import dyncatch.reproduce.jobs as jobs_module
@@ -117,7 +119,8 @@ def test_a_column_not_trained_on_plays_the_first_behaviours_policy_in_its_own_wo
 
     world = WorldCfg()
     world = world.replace(episode=world.episode.replace(duration_s=1.0))
-    plan = Plan(seeds=1, behaviors=("reactive",), episodes=4, world=world)
+    plan = Plan(seeds=1, behaviors=("circle", "reactive"), episodes=4, world=world)
+    assert plan.transfer_from == "reactive"
     loaded = []
 
     def fake_load_run(run, as_method=None, predictor=None):
@@ -125,21 +128,52 @@ def test_a_column_not_trained_on_plays_the_first_behaviours_policy_in_its_own_wo
         return types.SimpleNamespace(policy=BASELINES["pursuit"](world), world=world)
 
     monkeypatch.setattr(jobs_module, "load_run", fake_load_run)
-    jobs = grid_jobs(plan, tmp_path, "fig6", ("circle",), (1.2,))
+    jobs = grid_jobs(plan, tmp_path, "transfer", ("circle",), (1.2,))
+    assert all(c.policy.learned for j in jobs for c in j.cells)  # no baselines
     (job,) = [j for j in jobs if j.cells[0].policy.name == "sp_rl"]
     assert [c.policy.seed for c in job.cells] == [0]
     job()
     run, as_method, predictor = loaded[0]
     assert run == run_dir(tmp_path, "reactive", "sp_rl", 0)
     assert as_method == "sp_rl" and "reactive" in str(predictor)
-    rows = json.loads(cell_path(tmp_path, "fig6", "circle", "sp_rl", 0).read_text())
+    rows = json.loads(cell_path(tmp_path, "transfer", "circle", "sp_rl", 0).read_text())
     assert [(r["behavior"], r["speed_mps"], r["episodes"]) for r in rows] == [("circle", 1.2, 4)]
-    for method, seed in policies(plan):  # the other cells, as finished
-        path = cell_path(tmp_path, "fig6", "circle", method, seed)
+    for method, seed in policies(plan, "transfer"):  # the other cells, as finished
+        path = cell_path(tmp_path, "transfer", "circle", method, seed)
         if not path.exists():
             path.write_text(json.dumps([{"method": method}]))
-    got = grid_rows(plan, tmp_path, "fig6", ("circle",))
+    got = grid_rows(plan, tmp_path, "transfer", ("circle",))
     assert {r["trained_on"] for r in got} == {"reactive"}
+    assert len(got) == len(plan.method_names)
+
+
+def test_a_tiny_plan_trains_per_behaviour_and_fig6_reads_each_behaviours_own_runs(tmp_path):
+    """The paper's protocol: a run and a predictor per (method, behaviour), and each Fig. 6
+    column's policies are that behaviour's (recorded as ``trained_on``)."""
+    plan = Plan(seeds=2, behaviors=("circle", "reactive"), speeds_mps=(1.8,),
+                table_i_behaviors=("reactive",))  # fmt: skip
+    assert plan.fig6_columns == ("circle", "reactive")
+    assert fig6_evaluated_columns(plan) == ("circle",)  # reactive: Table I's cells
+    runs = {c.out for j in train_jobs(plan, tmp_path) for c in j.runs}
+    assert runs == {run_dir(tmp_path, b, m, s) for b in plan.behaviors for m in TRAINED
+                    for s in range(2)}  # fmt: skip
+    for job in fig6_jobs(plan, tmp_path):
+        for c in job.cells:
+            if c.policy.learned:
+                assert c.policy.run.parent.parent.name == "circle"
+                assert c.policy.predictor is None or "circle" in c.policy.predictor.parent.name
+    for b, table in (("circle", "fig6"), ("reactive", "table_i")):
+        _write_cells(tmp_path, table, b, plan, lambda m, b=b: [
+            {"behavior": b, "method": m, "speed_mps": 1.8, "success_rate": 0.5}
+        ])  # fmt: skip
+    rows = fig6_rows(plan, tmp_path)
+    assert {(r["behavior"], r["trained_on"]) for r in rows if r["seed"] is not None} == {
+        ("circle", "circle"),
+        ("reactive", "reactive"),
+    }
+    # A column not trained on is refused, never filled with another behaviour's policies.
+    with pytest.raises(ValueError, match="not trained on"):
+        fig6_jobs(dataclasses.replace(plan, fig6_behaviors=("bounce",)), tmp_path)
 
 
 def _write_cells(out, table, behavior, plan, rows_of):
@@ -150,8 +184,8 @@ def _write_cells(out, table, behavior, plan, rows_of):
 
 
 def test_fig6_takes_table_i_cells_where_it_has_them_and_evaluates_the_rest(tmp_path):
-    plan = Plan(seeds=1, behaviors=("reactive",), speeds_mps=(1.4, 1.8),
-                fig6_behaviors=("reactive", "circle"))  # fmt: skip
+    plan = Plan(seeds=1, behaviors=("reactive", "circle"), speeds_mps=(1.4, 1.8),
+                table_i_behaviors=("reactive",))  # fmt: skip
     assert fig6_evaluated_columns(plan) == ("circle",)
     _write_cells(tmp_path, "table_i", "reactive", plan, lambda m: [
         {"behavior": "reactive", "method": m, "speed_mps": v, "success_rate": v / 2}

@@ -70,3 +70,24 @@ def test_a_plan_recorded_before_fig9_resumes_with_the_stage_off_or_on(tmp_path, 
     (tmp_path / "plan.json").write_text(json.dumps(recorded))
     check_plan(tmp_path, Plan(seeds=2, fig9=fig9))
     assert json.loads((tmp_path / "plan.json").read_text())["fig9"] is fig9
+
+
+def test_a_plan_recorded_before_fig9_speed_resumes_only_with_the_drawn_variant(tmp_path):
+    """Before ``fig9_speed_mps`` Fig. 9 drew its speed per episode: its cells are not the
+    fixed-speed ones, so only the drawn variant (None) reuses them."""
+    recorded = _record(tmp_path, Plan(seeds=2))
+    assert recorded["fig9_speed_mps"] == 1.8
+    del recorded["fig9_speed_mps"]
+    (tmp_path / "plan.json").write_text(json.dumps(recorded))
+    with pytest.raises(ValueError, match=r"fig9_speed_mps \(None -> 1\.8\)"):
+        check_plan(tmp_path, Plan(seeds=2))
+    check_plan(tmp_path, Plan(seeds=2, fig9_speed_mps=None))
+    assert json.loads((tmp_path / "plan.json").read_text())["fig9_speed_mps"] is None
+
+
+def test_another_protocol_is_refused(tmp_path):
+    _record(tmp_path, Plan(seeds=2))
+    with pytest.raises(ValueError, match=r"behaviors"):
+        check_plan(tmp_path, Plan(seeds=2, behaviors=("reactive", "random_reactive")))
+    with pytest.raises(ValueError, match=r"transfer_behaviors"):
+        check_plan(tmp_path, Plan(seeds=2, transfer_behaviors=()))

@@ -32,20 +32,58 @@ def test_switched_off_stages_leave_the_list():
     ("profile", "seconds"),
     # The constants and counts summed per stage; evaluation counts its compilations, one per
     # (policy, behaviour) of a grid and per (policy, scene, behaviour) of Fig. 9 (blend and
-    # seeds share one): full Table I 204 cells x 3 s + 14 x 20 s, Fig. 6 34 x 3 s + 14 x 20 s,
-    # Fig. 9 24 (of 96) fewer compilations than with a program per row.
-    [("full", 8165.636363636364), ("quick", 642.7090909090908)],
+    # seeds share one). Full (5 methods, 4 trained, 2 baselines, 10 seeds, 300 episodes =
+    # 0.9 s a cell): training 4 x 4 behaviours x 10 seeds x 4 M / 22 000 + 16 groups x 20 s
+    # = 29 411 s; Table I 52 policies x 6 speeds x 2 rows x 0.9 + 7 x 2 x 20 = 842; Fig. 6
+    # circle and bounce (reactive, random_reactive are Table I's) 2 x (52 x 0.9 + 7 x 20)
+    # = 374; transfer 3 columns x (50 x 0.9 + 5 x 20) = 435; Fig. 9 22 cells x 24 (scene,
+    # behaviour) x 3 s + 72 compilations x 20 = 3 024; predictors 248, Table II 128,
+    # videos 40 + 60. Power (rl, sp_rl; 30 seeds; 2 behaviours): training 120 x 4 M /
+    # 22 000 + 4 x 20 = 21 898; Table I 62 x 2 x 2 x 0.9 + 4 x 2 x 20 = 383; predictors 92.
+    [("full", 34561.109090909085), ("quick", 488.5090909090909), ("power", 22373.38181818182)],
 )
 def test_the_estimate_is_the_one_printed_before_the_stage_list(profile, seconds):
     plan = PROFILES[profile]
     assert estimate_s(plan) == pytest.approx(seconds, rel=1e-12)
     assert f"{estimate_s(plan) / 60:.0f}" == f"{seconds / 60:.0f}"
     tracked = Plan(methods=tuple(m for m in METHODS if not METHODS[m].memory))
-    assert estimate_s(tracked) == pytest.approx(10436.545454545456, rel=1e-12)
+    assert estimate_s(tracked) == pytest.approx(43763.83636363636, rel=1e-12)
     # The two memory methods: two more trained methods at the same constants.
-    assert estimate_s(Plan(methods=tuple(METHODS))) == pytest.approx(14502.363636363636, rel=1e-12)
+    assert estimate_s(Plan(methods=tuple(METHODS))) == pytest.approx(61455.29090909091, rel=1e-12)
     plain = dataclasses.replace(PROFILES["quick"], videos=False, fig9=False)
-    assert estimate_s(plain) == pytest.approx(550.3090909090909, rel=1e-12)
+    assert estimate_s(plain) == pytest.approx(406.1090909090909, rel=1e-12)
+
+
+def test_the_estimate_counts_the_transfer_and_power_stages():
+    full = PROFILES["full"]
+    by = {s.name: s.estimate(full) for s in stages_of(full)}
+    assert by["transfer"] == pytest.approx(3 * (5 * 10 * 0.9 + 5 * 20))
+    no_transfer = dataclasses.replace(full, transfer_behaviors=())
+    assert estimate_s(full) - estimate_s(no_transfer) == pytest.approx(by["transfer"])
+    power = PROFILES["power"]
+    assert [s.name for s in stages_of(power)] == ["predictors", "training", "table_i", "fig6"]
+    assert power.training_runs == 2 * 2 * 30
+
+
+@pytest.mark.parametrize("profile", ["full", "quick", "power"])
+def test_the_profiles_validate_and_keep_the_protocol(profile):
+    from dyncatch.reproduce.validate import validate_plan
+
+    plan = validate_plan(PROFILES[profile])
+    assert plan.profile == profile
+    shown = (*plan.table_i_rows, *plan.fig6_columns, *(plan.fig9_columns * plan.fig9))
+    assert set(shown) <= set(plan.behaviors)  # every policy on its own behaviour
+    if profile == "full":
+        assert set(plan.behaviors) == {"circle", "bounce", "reactive", "random_reactive"}
+        assert plan.seeds >= 10 and plan.fig9_speed_mps == 1.8
+        assert plan.transfer_from == "reactive" and plan.transfer_behaviors
+    if profile == "power":
+        assert plan.method_names == ("rl", "sp_rl") and 20 <= plan.seeds <= 30
+        assert plan.speeds_mps == (1.6, 1.8)
+    if profile == "quick":
+        assert plan.behaviors == ("reactive",) and not plan.transfer_behaviors
+    with pytest.raises(ValueError, match="not trained on"):
+        validate_plan(dataclasses.replace(plan, fig6_behaviors=("straight",)))
 
 
 def test_the_log_numbers_the_stages_from_the_list(tmp_path, monkeypatch):

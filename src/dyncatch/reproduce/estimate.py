@@ -66,6 +66,12 @@ def fig6_s(plan: Plan) -> float:
     return (_policies(plan) * _per_cell_s(plan) + _programs(plan) * EST_COMPILE_S) * columns
 
 
+def transfer_s(plan: Plan) -> float:
+    # Only the trained methods' policies (no baselines), one speed, per transfer column.
+    cells = len(plan.method_names) * plan.seeds * _per_cell_s(plan)
+    return (cells + len(plan.method_names) * EST_COMPILE_S) * len(plan.transfer_behaviors)
+
+
 def videos_s(plan: Plan) -> float:
     return EST_VIDEO_S * len(plan.fig6_columns)
 
@@ -74,7 +80,7 @@ def fig9_s(plan: Plan) -> float:
     # One compilation per (policy, scene, behaviour): a trained policy's seeds (a pytree
     # policy is an argument) and its rows with and without the blend (a traced flag) share it.
     rows = rows_of(plan)
-    scenes_behaviors = len(plan.fig9_scenes) * len(plan.fig9_behaviors)
+    scenes_behaviors = len(plan.fig9_scenes) * len(plan.fig9_columns)
     cells = sum(plan.seeds if r.learned else 1 for r in rows) * scenes_behaviors
     compiles = len({r.policy for r in rows}) * scenes_behaviors
     # A 40 s episode is 2 of the 20 s ones the evaluation constant was measured on.

@@ -1,8 +1,10 @@
 """Fig. 9: policies trained on the plane, deployed in rooms and woods (paper Sec. V-E).
 
 Each cell is (scene, behaviour, row, seed): success, mean catch time and contacts per
-episode over ``plan.fig9_episodes`` episodes of the scene's length (40 s), the target's
-speed drawn per episode from the world's range (the paper gives none for Fig. 9). A row is
+episode over ``plan.fig9_episodes`` episodes of the scene's length (40 s), the target at
+``plan.fig9_speed_mps`` (1.8 m/s, the paper's high speed; None: the variant that draws it
+per episode from the world's range), recorded in each cell. A policy is deployed on the
+behaviour it was trained on, with that behaviour's predictor. A row is
 a policy with or without eq. 10's collision-avoidance blend (``policies.blend``): the
 paper's method (``sp_rl``, over the plan's seeds, trained on the plane) without and with
 it, and the scripted baselines with it. A learned policy keeps the scan width it was
@@ -87,12 +89,21 @@ def row_named(name: str) -> Fig9Row:
     return Fig9Row(policy, bool(plus))
 
 
-def scene_world(world: WorldCfg, scene: str, behavior: str, duration_s: float | None) -> WorldCfg:
+def scene_world(
+    world: WorldCfg,
+    scene: str,
+    behavior: str,
+    duration_s: float | None,
+    speed_mps: float | None = None,
+) -> WorldCfg:
     """``world`` in ``scene`` with ``behavior`` and the scene's episode length (or
-    ``duration_s``, the plan's ``fig9_duration_s``); the scan keeps its rays (a trained
+    ``duration_s``, the plan's ``fig9_duration_s``), the target's speed fixed at
+    ``speed_mps`` (None: drawn from the world's range); the scan keeps its rays (a trained
     policy's input size)."""
     duration = duration_s or get_scene(scene).duration_s
     w = world.with_scene(scene).with_behavior(behavior)
+    if speed_mps is not None:
+        w = w.with_speed(speed_mps)
     return w.replace(episode=w.episode.replace(duration_s=duration))
 
 
@@ -113,6 +124,8 @@ class Deployment:
     blend: bool
     policy: PolicySpec
     duration_s: float | None = None
+    speed_mps: float | None = None
+    """The target's speed (None: drawn per episode)."""
 
     def load(self, blend_as_flag: bool = False):
         """(policy, world). A policy trained where the scan reads nothing (no walls, no
@@ -120,7 +133,9 @@ class Deployment:
         the blend a flag of the policy (``policies.blend.deploy``), so a learned policy's
         rows with and without it share one compiled evaluation."""
         policy, trained_world = self.policy.load()
-        world = scene_world(trained_world, self.scene, self.behavior, self.duration_s)
+        world = scene_world(
+            trained_world, self.scene, self.behavior, self.duration_s, self.speed_mps
+        )
         if not self.policy.learned:  # a baseline is built for the world it plays in
             policy, trained_world = BASELINES[self.policy.name](world), None
         return deploy(policy, trained_world, world, self.blend, blend_as_flag=blend_as_flag), world
@@ -133,6 +148,7 @@ def deployment(plan: Plan, out: Path, scene: str, behavior: str, row: Fig9Row, s
         row.blend,
         policy_spec(plan, out, behavior, row.policy, seed if row.learned else None),
         plan.fig9_duration_s,
+        plan.fig9_speed_mps,
     )
 
 
@@ -189,6 +205,7 @@ class Fig9Job(Job):
             "success_ci95": s["success_ci95"],
             "catch_time_s": s["catch_time_s"],
             "contacts_per_episode": float(np.mean(outcome["contacts"])),
+            "speed_mps": d.speed_mps,
             "trained_on": cell.trained_on,
         }
 
@@ -197,7 +214,7 @@ def _cells(plan: Plan, rows) -> list[tuple]:
     return [
         (scene, behavior, r.name, seed)
         for scene in plan.fig9_scenes
-        for behavior in plan.fig9_behaviors
+        for behavior in plan.fig9_columns
         for r in rows
         for seed in (range(plan.seeds) if r.learned else (None,))
     ]
@@ -269,7 +286,7 @@ def video_jobs(plan: Plan, out: Path, row: str = FILMED_ROW) -> list[Job]:
     """One GIF per scene of ``row`` (seed 0) on the first Fig. 9 behaviour, where missing."""
     r = row_named(row)
     return [
-        Fig9VideoJob(out, deployment(plan, out, sc, plan.fig9_behaviors[0], r, 0), row)
+        Fig9VideoJob(out, deployment(plan, out, sc, plan.fig9_columns[0], r, 0), row)
         for sc in plan.fig9_scenes
         if not _video_path(out, sc).with_suffix(".json").exists()
     ]

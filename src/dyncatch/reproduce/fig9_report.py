@@ -119,8 +119,12 @@ def markdown(fig9: dict, plan) -> list[str]:
     by = {(c["scene"], c["behavior"], c["method"]): c for c in fig9["cells"]}
     scenes = plan.fig9_scenes
     limit = plan.fig9_duration_s or "the scene's (40 s)"
+    speed = plan.fig9_speed_mps
+    speed = f"at {speed} m/s" if speed is not None else "its speed drawn per episode (variant)"
     lines = [
         "## Fig. 9: rooms and woods (policies trained on the plane)",
+        "",
+        f"The target {speed}; each policy on the behaviour it was trained on.",
         "",
         "Cells are success rate [95 % CI] / mean catch time (s; a failure counts as the "
         f"episode limit, {limit}) / contacts per episode (a contact: the footprint comes "
@@ -131,7 +135,7 @@ def markdown(fig9: dict, plan) -> list[str]:
         "![Fig. 9](figures/fig9.png)",
         "",
     ]
-    for behavior in plan.fig9_behaviors:
+    for behavior in plan.fig9_columns:
         lines += [
             f"### {behavior}",
             "",

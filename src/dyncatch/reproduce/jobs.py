@@ -111,12 +111,16 @@ class PolicySpec:
         return f"{self.name}{'' if self.seed is None else f' seed {self.seed}'} {where}"
 
 
-def policy_spec(plan: Plan, out: Path, behavior: str, name: str, seed: int | None) -> PolicySpec:
-    """The policy evaluated as ``name`` (seed ``seed``; None: a baseline) on ``behavior``:
-    the run of its policy source trained on ``behavior``'s source behaviour."""
+def policy_spec(
+    plan: Plan, out: Path, behavior: str, name: str, seed: int | None, table: str | None = None
+) -> PolicySpec:
+    """The policy evaluated as ``name`` (seed ``seed``; None: a baseline) on ``behavior`` in
+    ``table``: the run of its policy source trained on ``source_behavior``'s behaviour
+    (``behavior`` itself, or ``transfer_from`` in the transfer table), with that
+    behaviour's predictor."""
     if seed is None:
         return PolicySpec(name, world=plan.world)
-    src = source_behavior(plan, behavior)
+    src = source_behavior(plan, behavior, table)
     run = run_dir(out, src, METHODS[name].policy_source, seed)
     return PolicySpec(name, seed, run, predictor_path(out, src, name))
 

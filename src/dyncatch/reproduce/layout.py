@@ -8,6 +8,7 @@ Layout under ``out``::
     runs/{behavior}/{method}/seed{s}/      training runs (checkpoint, metrics.csv, tb/, done.json)
     eval/table_i/{behavior}/{policy}.json  one evaluation cell list per policy
     eval/fig6/{behavior}/{policy}.json
+    eval/transfer/{behavior}/{policy}.json transfer: ``transfer_from``'s policies elsewhere
     eval/fig9/{scene}/{behavior}/{row}.json  Fig. 9 cells (a row: a policy, blended or not)
     videos/{method}_{behavior}.gif         the filmed method (sp_rl)
     videos/fig9_{scene}.gif                Fig. 9: blended sp_rl in each scene
@@ -75,9 +76,15 @@ LEGACY_VALUES: dict[str, tuple] = {
     "fig9": (False, True),
     "ground_truth": (),
     "ppo.obs_min_std": (0.0,),
+    "fig9_speed_mps": (None,),
+    "transfer_behaviors": ([],),
+    "table_ii": (True,),
+    "power": (False,),
 }
 """Plan fields added after plans were recorded whose default is not (only) what the code did
 before them, mapped to the values a recorded plan without them is compatible with: plans
+recorded before ``fig9_speed_mps`` drew Fig. 9's speed per episode (None); before
+``transfer_behaviors`` there was no transfer table (adding it only adds its files); plans
 recorded before ``vmap_seeds`` trained their seeds one by one; plans recorded before
 ``fig9`` ran no Fig. 9 (off), and turning the stage on only adds its files; plans recorded
 before ``ppo.obs_min_std`` normalised without a floor. Before ``ground_truth`` was recorded
@@ -93,7 +100,7 @@ def _real_diff(have: dict, want: dict) -> dict:
     removed since, or one set to another value, counts."""
     from dyncatch.utils.config_io import flatten
 
-    profile = PROFILES["quick" if have.get("quick") else "full"]
+    profile = PROFILES["quick" if have.get("quick") else "power" if have.get("power") else "full"]
     accepted = {k: (v,) for k, v in flatten(profile.to_json()).items()} | LEGACY_VALUES
     known = flatten(have)
     return {
@@ -117,10 +124,18 @@ def run_dir(out: Path, behavior: str, method: str, seed: int) -> Path:
     return out / "runs" / behavior / method / f"seed{seed}"
 
 
-def source_behavior(plan: Plan, behavior: str) -> str:
-    """Behaviour whose policies are evaluated on ``behavior`` (its own if trained on it,
-    else the first trained behaviour: Fig. 6's circle and bounce columns test transfer)."""
-    return behavior if behavior in plan.behaviors else plan.behaviors[0]
+def source_behavior(plan: Plan, behavior: str, table: str | None = None) -> str:
+    """Behaviour whose policies (and predictors) are evaluated on ``behavior`` in ``table``:
+    the transfer table's are ``plan.transfer_from``'s; everywhere else its own (the paper's
+    protocol), and a behaviour not trained on is refused (``validate_plan`` names the flag)."""
+    if table == "transfer":
+        return plan.transfer_from
+    if behavior not in plan.behaviors:
+        raise ValueError(
+            f"{behavior} is evaluated but not trained on: add it to --behaviors "
+            "(policies tested on another behaviour belong in --transfer-behaviors)"
+        )
+    return behavior
 
 
 def cell_name(method: str, seed: int | None) -> str:

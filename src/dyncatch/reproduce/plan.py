@@ -1,9 +1,10 @@
 """What a reproduction runs: a ``Plan``, which is also the command line of ``dyncatch reproduce``.
 
-A profile (``full``, or ``quick`` with ``--quick``) gives every field its default; any flag
-given on the command line overrides it, even when it equals another profile's value. The
-plan, with its whole world and PPO config, is recorded in ``plan.json``: a results folder
-says exactly what produced it, and a re-run with another plan into it is refused.
+A profile (``full``; ``quick`` with ``--quick``; ``power`` with ``--power``) gives every
+field its default; any flag given on the command line overrides it, even when it equals
+another profile's value. The plan, with its whole world and PPO config, is recorded in
+``plan.json``: a results folder says exactly what produced it, and a re-run with another
+plan into it is refused.
 """
 
 from __future__ import annotations
@@ -33,37 +34,61 @@ from dyncatch.utils.config_io import to_json
 @dataclass(frozen=True)
 class Plan:
     """Train every trained method on each behaviour over seeds (evaluation-only methods
-    reuse their policies), then write Table I, Table II, Fig. 5, Fig. 6, Fig. 9, videos,
-    report.md and results.json. Re-running the same command skips finished stages and resumes an
-    interrupted one.
+    reuse their policies), then write Table I, Table II, Fig. 5, Fig. 6, Fig. 9, the
+    transfer table, videos, report.md and results.json.
+
+    The paper's protocol: a policy (with its behaviour's own predictor) is evaluated on the
+    behaviour it was trained on, in Table I, Fig. 6 and Fig. 9; every behaviour those show
+    must be trained on. Transfer (policies trained on ``transfer_from`` tested on other
+    behaviours) is a separate, labelled table (``transfer_behaviors``). Re-running the same
+    command skips finished stages and resumes an interrupted one.
     """
 
     quick: bool = False
     """The quick profile (one seed, one behaviour, short training, fewer episodes; 9 min on 2 cores)
-    instead of the full one (3 seeds, 4 M steps per run, 1000 episodes per cell)."""
+    instead of the full one (10 seeds on each of the four behaviours, 4 M steps per run,
+    300 episodes per cell)."""
+    power: bool = False
+    """The power profile: only rl and sp_rl, 30 seeds on reactive and random_reactive,
+    Table I at 1.6 and 1.8 m/s (the primary endpoints; no Table II, Fig. 9, transfer or
+    videos). 30 seeds: at the full run's pooled seed SDs (rl 0.23, sp_rl 0.06) the 95 % CI
+    half-width on sp_rl - rl is about 0.09, within the 0.10 target; 10 seeds give about
+    0.17."""
     out: Path | None = None
     """Results folder (default results/full or results/quick)."""
     setting: tuple[ReadingName, ...] = ()
     """Readings of the paper applied on top of the profile, in order
     (dyncatch.reproduce.readings; none: the library defaults). Flags still override them."""
-    seeds: int = 3
-    """Training seeds per (method, behaviour)."""
-    behaviors: tuple[BehaviorName, ...] = ("reactive", "random_reactive")
-    """Behaviours trained on (Table I rows, Fig. 5 panels)."""
+    seeds: int = 10
+    """Training seeds per (method, behaviour): the unit of every CI (seed SDs of 0.05-0.23
+    at 1.8 m/s, so fewer than 10 leave CIs wider than the differences judged)."""
+    behaviors: tuple[BehaviorName, ...] = ("circle", "bounce", "reactive", "random_reactive")
+    """Behaviours trained on, each with its own predictor (Fig. 5 panels; Fig. 6 columns)."""
     train_steps: int = 4_000_000
     """Environment steps per training run."""
-    table_i_behaviors: tuple[BehaviorName, ...] | None = None
-    """Rows of Table I (default: the behaviours trained on). One not trained on is evaluated
-    with the first trained behaviour's policies and predictors (transfer, as in Fig. 6);
-    ``trained_on`` in results.json says which."""
+    table_i_behaviors: tuple[BehaviorName, ...] | None = ("reactive", "random_reactive")
+    """Rows of Table I (the paper's two; None: the behaviours trained on). Each must be
+    trained on (``trained_on`` in results.json says so)."""
     speeds_mps: tuple[float, ...] = PAPER_SPEEDS_MPS
     """Table I columns (target speeds, m/s)."""
-    episodes: int = 1000
-    """Evaluation episodes per (policy, behaviour, speed) cell."""
+    episodes: int = 300
+    """Evaluation episodes per (policy, behaviour, speed) cell, from the binomial arithmetic:
+    a seed's success rate at p over n episodes has SE sqrt(p(1-p)/n) <= 0.5/sqrt(n). At
+    n = 300 that is <= 0.029, and 0.017 at p = 0.9 where the primary endpoints sit: a
+    variance of 3e-4 against the smallest between-seed SD measured (sp_rl, 0.05: 2.5e-3)
+    adds 12 % to it, and 2-6 % against rl's 0.12-0.23, so a seed mean's SD grows by <= 6 %.
+    1000 episodes would buy 1-2 % of CI width at 3.3x the evaluation time; seeds buy it
+    (the CI shrinks as 1/sqrt(seeds)). Quick: 200."""
     fig6_speed_mps: float = 1.8
     """The high speed of Fig. 6."""
     fig6_behaviors: tuple[BehaviorName, ...] | None = None
-    """Columns of Fig. 6 and the videos (default: every registered behaviour)."""
+    """Columns of Fig. 6 and the videos (default: the behaviours trained on), each policy
+    on its own behaviour."""
+    transfer_from: BehaviorName = "reactive"
+    """The behaviour whose policies (and predictors) the transfer table tests elsewhere."""
+    transfer_behaviors: tuple[BehaviorName, ...] = ("circle", "bounce", "random_reactive")
+    """Columns of the transfer table (an extra beyond the paper, not its protocol): the
+    trained methods of ``transfer_from`` at ``fig6_speed_mps`` on each; () skips it."""
     predictor_steps: int = 2_000_000
     """Interaction steps the frozen predictors are trained on."""
     predictor_updates: int = 6000
@@ -72,6 +97,8 @@ class Plan:
     """Table II columns (interaction steps)."""
     table_ii_eval_steps: int = 500_000
     """Held-out interaction steps per Table II behaviour."""
+    table_ii: bool = True
+    """The Table II stage (--no-table-ii skips it)."""
     table_ii_behaviors: tuple[BehaviorName, ...] | None = None
     """Rows of Table II (default: every registered behaviour)."""
     methods: tuple[MethodName, ...] | None = None
@@ -98,15 +125,18 @@ class Plan:
     eq. 10's collision-avoidance blend (dyncatch.reproduce.fig9); --no-fig9 skips it."""
     fig9_scenes: tuple[SceneName, ...] = PAPER_FIG9_SCENES
     """Scenes of Fig. 9 (the paper's Room-0/4/8 and Wood-P/R/S)."""
-    fig9_behaviors: tuple[BehaviorName, ...] = ("circle", "bounce", "reactive", "random_reactive")
-    """Behaviours of Fig. 9: the paper's three (Sec. V-E names circle, bounce and reactive,
-    and its Room-0 average, 86.8 %, is their mean) and random_reactive (Table I's other
-    row). One not trained on uses the first trained behaviour's policies, as in Fig. 6; the
-    first is filmed."""
+    fig9_behaviors: tuple[BehaviorName, ...] | None = None
+    """Behaviours of Fig. 9 (default: the behaviours trained on: the paper's three, Sec.
+    V-E names circle, bounce and reactive and its Room-0 average, 86.8 %, is their mean,
+    and random_reactive, Table I's other row), each trained on; the first is filmed."""
+    fig9_speed_mps: float | None = 1.8
+    """The target's speed in Fig. 9 (the paper's high speed: its abstract pairs Table I's
+    1.8 m/s success with the rooms'); None: the named variant ``drawn``, the speed drawn per
+    episode from the world's range, U(0, 1.8) m/s."""
     fig9_episodes: int = 500
-    """Evaluation episodes per Fig. 9 cell (scene, behaviour, row, seed). 500, not Table I's
-    1000: Fig. 9 has 192 cells of 40 s episodes (measured on 2 cores: 13 s per 1000 episodes
-    of plain sp_rl in room_8, 18 s blended). Its CIs are over seeds; a seed's own binomial
+    """Evaluation episodes per Fig. 9 cell (scene, behaviour, row, seed). Fig. 9 has 528
+    cells (10 seeds, 4 behaviours) of 40 s episodes (measured on 2 cores: 13 s per 1000
+    episodes of plain sp_rl in room_8, 18 s blended). Its CIs are over seeds; a seed's own binomial
     error at 500 episodes is at most 0.022 (in the full run, room_8's seeds of blended sp_rl
     on reactive spread less than that, 0.950-0.962, so there it is part of the CI)."""
     fig9_duration_s: float | None = None
@@ -133,7 +163,7 @@ class Plan:
 
     @property
     def profile(self) -> str:
-        return "quick" if self.quick else "full"
+        return "quick" if self.quick else "power" if self.power else "full"
 
     @property
     def out_dir(self) -> Path:
@@ -142,12 +172,17 @@ class Plan:
     @property
     def fig6_columns(self) -> tuple[str, ...]:
         """The behaviours of Fig. 6 and the videos."""
-        return self.fig6_behaviors if self.fig6_behaviors is not None else all_behaviors()
+        return self.fig6_behaviors if self.fig6_behaviors is not None else self.behaviors
 
     @property
     def table_i_rows(self) -> tuple[str, ...]:
         """The behaviours of Table I."""
         return self.table_i_behaviors if self.table_i_behaviors is not None else self.behaviors
+
+    @property
+    def fig9_columns(self) -> tuple[str, ...]:
+        """The behaviours of Fig. 9."""
+        return self.fig9_behaviors if self.fig9_behaviors is not None else self.behaviors
 
     @property
     def table_ii_rows(self) -> tuple[str, ...]:
@@ -187,10 +222,12 @@ PROFILES: dict[str, Plan] = {
         # `make demo` in 17.8 min (training 528 s, Table I 180 s, Fig. 6 105 s of the
         # reproduction's 999 s), over the 10 minutes. Evaluation is mostly compilation (about
         # 10 s per cell), so the profile keeps fewer cells rather than fewer episodes: the
-        # paper's central behaviour only, Fig. 6 on it and on circle (the transfer column),
-        # 0.5 M steps (the knee of the full run's learning curves). Measured: docs/results.md.
+        # paper's central behaviour only, Fig. 6 on it (own behaviour: Table I's cells at
+        # 1.8 m/s, no evaluation of its own; no transfer table), 0.5 M steps (the knee of
+        # the full run's learning curves). Measured: docs/results.md.
         behaviors=("reactive",),
-        fig6_behaviors=("reactive", "circle"),
+        table_i_behaviors=None,
+        transfer_behaviors=(),
         train_steps=500_000,
         episodes=200,
         predictor_steps=500_000,
@@ -206,6 +243,17 @@ PROFILES: dict[str, Plan] = {
         fig9_scenes=("room_8",),
         fig9_behaviors=("reactive",),
         fig9_episodes=100,
+    ),
+    "power": Plan(
+        power=True,
+        seeds=30,
+        methods=("rl", "sp_rl"),
+        behaviors=("reactive", "random_reactive"),
+        speeds_mps=(1.6, 1.8),
+        transfer_behaviors=(),
+        table_ii=False,
+        videos=False,
+        fig9=False,
     ),
 }
 

@@ -148,11 +148,12 @@ def train_jobs(plan: Plan, out: Path) -> list[Job]:
     return jobs
 
 
-def policies(plan: Plan) -> list[tuple[str, int | None]]:
+def policies(plan: Plan, table: str | None = None) -> list[tuple[str, int | None]]:
     """(name, seed or None) of every evaluated policy: each method compared over seeds,
-    then each baseline."""
+    then each baseline (not in the transfer table: a baseline is trained on nothing, and
+    its cells on a behaviour are Fig. 6's)."""
     methods = [(m, s) for m in plan.method_names for s in range(plan.seeds)]
-    return methods + [(b, None) for b in BASELINES]
+    return methods + ([] if table == "transfer" else [(b, None) for b in BASELINES])
 
 
 def grid_jobs(plan: Plan, out: Path, table: str, behaviors, speeds) -> list[Job]:
@@ -160,11 +161,11 @@ def grid_jobs(plan: Plan, out: Path, table: str, behaviors, speeds) -> list[Job]
     per speed) not cached: a method's seeds share its compiled evaluation."""
     jobs = []
     for b in behaviors:
-        names = dict.fromkeys(m for m, _ in policies(plan))
+        names = dict.fromkeys(m for m, _ in policies(plan, table))
         for name in names:
             cells = tuple(
-                EvalCell(cell_path(out, table, b, m, s), policy_spec(plan, out, b, m, s))
-                for m, s in policies(plan)
+                EvalCell(cell_path(out, table, b, m, s), policy_spec(plan, out, b, m, s, table))
+                for m, s in policies(plan, table)
                 if m == name and not cell_path(out, table, b, m, s).exists()
             )
             if cells:
@@ -173,12 +174,14 @@ def grid_jobs(plan: Plan, out: Path, table: str, behaviors, speeds) -> list[Job]
 
 
 def grid_rows(plan: Plan, out: Path, table: str, behaviors) -> list[dict]:
-    """Rows of (policy, seed, behaviour, speed) cells, read back."""
+    """Rows of (policy, seed, behaviour, speed) cells, read back, each with the behaviour
+    its policy was trained on (None: a baseline)."""
     rows = []
     for b in behaviors:
-        for m, s in policies(plan):
+        for m, s in policies(plan, table):
+            src = None if s is None else source_behavior(plan, b, table)
             for r in read_json(cell_path(out, table, b, m, s)):
-                rows.append({**r, "seed": s, "trained_on": source_behavior(plan, b)})
+                rows.append({**r, "seed": s, "trained_on": src})
     return rows
 
 
@@ -207,6 +210,17 @@ def fig6_rows(plan: Plan, out: Path) -> list[dict]:
         source = evaluated if b in rest else table_i
         rows += [r for r in source if r["behavior"] == b and abs(r["speed_mps"] - speed) < 1e-9]
     return rows
+
+
+def transfer_jobs(plan: Plan, out: Path) -> list[Job]:
+    """The transfer table's cells: ``transfer_from``'s trained policies (with its
+    predictors) at ``fig6_speed_mps`` on each of ``transfer_behaviors``."""
+    speeds = (plan.fig6_speed_mps,)
+    return grid_jobs(plan, out, "transfer", plan.transfer_behaviors, speeds)
+
+
+def transfer_rows(plan: Plan, out: Path) -> list[dict]:
+    return grid_rows(plan, out, "transfer", plan.transfer_behaviors)
 
 
 def _clips(plan: Plan) -> list[tuple[str, str]]:
@@ -253,6 +267,7 @@ STAGES: tuple[Stage, ...] = (
         table_ii_jobs,
         table_ii_rows,
         estimate.table_ii_s,
+        lambda plan: plan.table_ii,
     ),
     Stage(
         "training",
@@ -280,6 +295,16 @@ STAGES: tuple[Stage, ...] = (
         fig6_jobs,
         fig6_rows,
         estimate.fig6_s,
+    ),
+    Stage(
+        "transfer",
+        "transfer (policies trained on one behaviour, tested on others)",
+        ("runs", "predictors"),
+        ("eval/transfer",),
+        transfer_jobs,
+        transfer_rows,
+        estimate.transfer_s,
+        lambda plan: bool(plan.transfer_behaviors),
     ),
     Stage(
         "videos",

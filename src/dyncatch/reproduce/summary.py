@@ -117,7 +117,7 @@ def results(plan: Plan, out: Path, outputs: dict, command: str, commit: str) -> 
     report.plot_table_i(cells, plan.table_i_rows, figs / "table_i.png")
     fig9_cells = fig9.summarize(fig9_rows)
     if plan.fig9:
-        fig9_report.plot(fig9_cells, plan.fig9_scenes, plan.fig9_behaviors, figs / "fig9.png")
+        fig9_report.plot(fig9_cells, plan.fig9_scenes, plan.fig9_columns, figs / "fig9.png")
 
     return {
         "scene": plan.world.scene.name,
@@ -135,9 +135,16 @@ def results(plan: Plan, out: Path, outputs: dict, command: str, commit: str) -> 
         "improvement_probabilities": improvement_probabilities(
             cells, plan.speeds_mps, paper_claims(plan.method_names)
         ),
-        "table_ii": outputs["table_ii"],
+        "table_ii": outputs.get("table_ii") or [],
         "predictors": outputs["predictors"],
         "fig6": {"cells": fig6_cells, "rows": fig6_rows},
+        "transfer": {
+            "trained_on": plan.transfer_from,
+            "cells": aggregate.summarize_cells(outputs["transfer"]),
+            "rows": outputs["transfer"],
+        }
+        if outputs.get("transfer")
+        else None,
         "training": training_rows(data),
         "videos": outputs.get("videos") or [],
         "fig9": {
