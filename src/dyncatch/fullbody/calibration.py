@@ -32,6 +32,7 @@ import numpy as np
 
 from dyncatch.sim.base import base_substep, clip_command
 from dyncatch.sim.config import ArenaCfg, BaseCfg
+from dyncatch.sim.state import RobotState
 
 
 @dataclasses.dataclass(frozen=True)
@@ -156,7 +157,6 @@ def read_limits(responses: list[Response], cfg: CalibrationCfg, hz: float) -> di
 def reduced_response(commands: jax.Array, base: BaseCfg, dt_s: float) -> jax.Array:
     """(T, 3) velocities of the reduced base from rest under ``commands`` (T, 3), clipped to
     ``base``'s limits as the JAX world clips actions; no gait noise, no walls."""
-    from dyncatch.sim.state import RobotState
 
     robot = RobotState(
         xy_m=jnp.zeros(2),

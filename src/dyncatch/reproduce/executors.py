@@ -19,6 +19,8 @@ from pathlib import Path
 
 from dyncatch.reproduce.jobs import Job
 from dyncatch.reproduce.plan import Plan
+from dyncatch.sim.behaviors import BEHAVIORS, registered_behavior
+from dyncatch.utils.jax_setup import compilation_cache_dir, setup_jax
 
 RAY_INSTALL = "pip install 'dyncatch[ray]' (or pip install 'ray[default]')"
 
@@ -53,8 +55,6 @@ def worker_env(local: bool) -> dict[str, str]:
     run time (a behaviour defined in a script or test) can be unpickled by the workers."""
     import jax
 
-    from dyncatch.utils.jax_setup import compilation_cache_dir
-
     env = {
         k: v for k, v in os.environ.items() if k.startswith(("JAX_", "XLA_")) or k in _FORWARDED_ENV
     }
@@ -70,9 +70,6 @@ def _run_on_worker(job: Job, behaviors: dict, cwd: str) -> None:
     the same folder; on a cluster use a shared filesystem), JAX settings and behaviour
     registry, then the job."""
     from contextlib import ExitStack
-
-    from dyncatch.sim.behaviors import BEHAVIORS, registered_behavior
-    from dyncatch.utils.jax_setup import setup_jax
 
     if os.path.isdir(cwd):
         os.chdir(cwd)
@@ -130,8 +127,6 @@ class RayExecutor:
 
     def run(self, jobs: Sequence[Job]) -> None:
         import ray
-
-        from dyncatch.sim.behaviors import BEHAVIORS
 
         behaviors = dict(BEHAVIORS)
         cwd = os.getcwd()

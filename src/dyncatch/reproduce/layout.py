@@ -28,7 +28,7 @@ from pathlib import Path
 
 from dyncatch.reproduce.plan import PROFILES, Plan
 from dyncatch.rl.methods import get_method
-from dyncatch.utils.config_io import config_diff
+from dyncatch.utils.config_io import config_diff, flatten
 from dyncatch.utils.files import honour_umask, read_json
 
 
@@ -98,7 +98,6 @@ def _real_diff(have: dict, want: dict) -> dict:
     else its default in the recorded plan's profile (a field added later defaults to the old
     behaviour unless listed there). So a cached study made before it still holds. A field
     removed since, or one set to another value, counts."""
-    from dyncatch.utils.config_io import flatten
 
     profile = PROFILES["quick" if have.get("quick") else "power" if have.get("power") else "full"]
     accepted = {k: (v,) for k, v in flatten(profile.to_json()).items()} | LEGACY_VALUES

@@ -5,6 +5,7 @@ from __future__ import annotations
 from flax import struct
 
 from dyncatch.sim.config import static
+from dyncatch.sim.validate import non_finite_fields
 
 
 @struct.dataclass
@@ -64,7 +65,6 @@ class PPOCfg:
 
 def validate_ppo(cfg: PPOCfg) -> PPOCfg:
     """Raise ValueError naming the field when the batch geometry or a coefficient cannot work."""
-    from dyncatch.sim.validate import non_finite_fields
 
     for name, value in non_finite_fields(cfg, "ppo."):
         raise ValueError(f"{name} must be a finite number, got {value}")

@@ -30,6 +30,7 @@ from dyncatch.rl.train import make_train, to_command
 from dyncatch.sim.api import Environment, JaxCatchEnv
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.state import EnvState, Obs
+from dyncatch.sim.validate import ConfigError, validate_world
 from dyncatch.utils.config_io import ConfigDictError, from_dict
 from dyncatch.utils.tree_io import TreeFileError, load_fields, read_header
 
@@ -118,7 +119,6 @@ def header_field(path: Path, header: dict, name: str, kind: type = str) -> Any:
 def header_world(path: Path, header: dict) -> WorldCfg:
     """The training world of a checkpoint's header: typed and checked, or TreeFileError
     naming the file and the field."""
-    from dyncatch.sim.validate import ConfigError, validate_world
 
     try:
         world = from_dict(WorldCfg, header_field(path, header, "world", dict), "world")
