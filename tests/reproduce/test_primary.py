@@ -148,11 +148,11 @@ class TestGroundTruthReadingIsRecorded:
                 check_plan(tmp_path, Plan(seeds=2, ground_truth=reading))
 
     def test_a_plan_recorded_before_the_normaliser_floor_resumes_only_without_it(self, tmp_path):
-        plan = Plan(seeds=2)
+        plan = Plan(seeds=2, ppo=Plan().ppo.replace(obs_min_std=0.5))
         check_plan(tmp_path, plan)
         recorded = json.loads((tmp_path / "plan.json").read_text())
         del recorded["ppo"]["obs_min_std"]
         (tmp_path / "plan.json").write_text(json.dumps(recorded))
         with pytest.raises(ValueError, match=r"ppo\.obs_min_std \(None -> 0\.5\)"):
             check_plan(tmp_path, plan)
-        check_plan(tmp_path, Plan(seeds=2, ppo=plan.ppo.replace(obs_min_std=0.0)))
+        check_plan(tmp_path, Plan(seeds=2))

@@ -24,4 +24,4 @@ def test_a_header_with_the_floor_keeps_it():
     recorded = _ppo_dict(PPOCfg().replace(obs_min_std=0.25))
     ppo = header_ppo(Path("new/checkpoint.safetensors"), {"ppo": recorded})
     assert ppo.obs_min_std == 0.25
-    assert PPOCfg().obs_min_std == 0.5
+    assert PPOCfg().obs_min_std == 0.0
