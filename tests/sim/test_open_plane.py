@@ -159,7 +159,10 @@ def _episode(state: EnvState, actions: jax.Array, cfg: WorldCfg):
 # into the square at once). The circle's centre is a point of its behaviour state, which
 # moves with the rest, so the circle is. With sensor noise (0 by default) the same key draws
 # the noise in world axes, so only its distribution would be invariant.
-@settings(max_examples=10, deadline=None)
+# Derandomized: the same examples every run. A random search found the counterexample below,
+# which fails on the code before this test's last change too (4414ebe); until it is fixed, a
+# random draw of it would fail unrelated submissions.
+@settings(max_examples=10, deadline=None, derandomize=True)
 @given(
     seed=st.integers(0, 2**31 - 1),
     behavior=st.sampled_from(["reactive", "random_reactive", "circle"]),
@@ -184,6 +187,17 @@ def test_a_rigid_motion_of_the_world_changes_nothing_the_robot_senses(seed, beha
     np.testing.assert_allclose(info2["distance_m"], info["distance_m"], atol=2e-4)
     # The initial observation too (the one reset hands a policy).
     np.testing.assert_allclose(env.observe(moved, cfg).flat, env.observe(s, cfg).flat, atol=1e-5)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="known defect: turned by 1 rad, the catch error departs by 1.6 mm (0.46 m away) "
+    "in the two steps after the arm activates; the observation and outcome agree",
+)
+def test_a_rigid_motion_found_by_search_changes_nothing_the_robot_senses():
+    test_a_rigid_motion_of_the_world_changes_nothing_the_robot_senses.hypothesis.inner_test(
+        seed=1_726_642_570, behavior="circle", angle=1.0, shift=(0.0, 0.0)
+    )
 
 
 def test_a_catch_10_km_out_is_judged_exactly_as_at_the_origin():
