@@ -47,9 +47,12 @@ from dyncatch.rl.train import (
     ObsFn,
     TrainState,
     Transition,
+    adapt_learning_rate,
     as_stepper,
     batch_constraint,
     flat_obs,
+    make_optimizer,
+    rollout_metrics,
     step_with_final_input,
     to_command,
 )
@@ -119,13 +122,6 @@ def sequence_loss(
     return loss, {**metrics, "kl": kl}
 
 
-def adapt_learning_rate(lr: jax.Array, kl: jax.Array, ppo: PPOCfg) -> jax.Array:
-    """``rl.train``'s adaptive-KL rule: /1.5 above 2x ``desired_kl``, x1.5 below half."""
-    lr = jnp.where(kl > 2 * ppo.desired_kl, lr / 1.5, lr)
-    lr = jnp.where(kl < 0.5 * ppo.desired_kl, lr * 1.5, lr)
-    return jnp.clip(lr, ppo.min_lr, ppo.max_lr)
-
-
 def make_recurrent_train(
     env: Environment | WorldCfg, ppo: PPOCfg, obs_fn: ObsFn = flat_obs, mesh: Mesh | None = None
 ):
@@ -138,10 +134,7 @@ def make_recurrent_train(
     net = RecurrentActorCritic(env.action_spec.shape[0], ppo.hidden_sizes, ppo.init_log_std)
     stepper = as_stepper(obs_fn)
     vstep, vinit = jax.vmap(stepper.step), jax.vmap(stepper.init_carry)
-    optimizer = optax.chain(
-        optax.clip_by_global_norm(ppo.max_grad_norm),
-        optax.inject_hyperparams(optax.adam)(learning_rate=ppo.learning_rate),
-    )
+    optimizer = make_optimizer(ppo)
 
     def init(key: jax.Array) -> RecurrentTrainState:
         k_net, k_env, k_next = jax.random.split(key, 3)
@@ -259,19 +252,3 @@ def make_recurrent_train(
         return ts, {**metrics, **rollout_metrics(ts, traj, env)}
 
     return init, iterate, net
-
-
-def rollout_metrics(ts: TrainState, traj: Transition, env: Environment) -> dict[str, jax.Array]:
-    """``rl.train``'s per-iteration rollout metrics (the same columns in metrics.csv)."""
-    done = traj.dones.astype(jnp.float32)
-    episodes = done.sum()
-    return {
-        "episodes": episodes,
-        "success_rate": (traj.success * done).sum() / jnp.maximum(episodes, 1),
-        "episode_length_s": (traj.episode_steps * done).sum()
-        / jnp.maximum(episodes, 1)
-        * env.world.episode.dt_s,
-        "reward_per_step": traj.rewards.mean(),
-        "learning_rate": ts.learning_rate,
-        "action_std": jnp.exp(ts.params["params"]["log_std"]).mean(),
-    }

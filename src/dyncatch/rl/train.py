@@ -165,6 +165,22 @@ def epoch_permutations(key: jax.Array, epochs: int, batch_size: int) -> jax.Arra
     return jax.vmap(jax.random.permutation, in_axes=(0, None))(keys, batch_size)
 
 
+def make_optimizer(ppo: PPOCfg) -> optax.GradientTransformation:
+    """Adam behind a global-norm clip, its learning rate a hyperparameter that
+    ``adapt_learning_rate`` sets each minibatch (``opt_state[1].hyperparams``)."""
+    return optax.chain(
+        optax.clip_by_global_norm(ppo.max_grad_norm),
+        optax.inject_hyperparams(optax.adam)(learning_rate=ppo.learning_rate),
+    )
+
+
+def adapt_learning_rate(lr: jax.Array, kl: jax.Array, ppo: PPOCfg) -> jax.Array:
+    """The adaptive-KL rule: ``lr`` / 1.5 above 2x ``desired_kl``, x 1.5 below half, clipped."""
+    lr = jnp.where(kl > 2 * ppo.desired_kl, lr / 1.5, lr)
+    lr = jnp.where(kl < 0.5 * ppo.desired_kl, lr * 1.5, lr)
+    return jnp.clip(lr, ppo.min_lr, ppo.max_lr)
+
+
 def make_train(
     env: Environment | WorldCfg, ppo: PPOCfg, obs_fn: ObsFn = flat_obs, mesh: Mesh | None = None
 ):
@@ -178,10 +194,7 @@ def make_train(
     stepper = as_stepper(obs_fn)
     vstep = jax.vmap(stepper.step)
     vinit = jax.vmap(stepper.init_carry)
-    optimizer = optax.chain(
-        optax.clip_by_global_norm(ppo.max_grad_norm),
-        optax.inject_hyperparams(optax.adam)(learning_rate=ppo.learning_rate),
-    )
+    optimizer = make_optimizer(ppo)
 
     def init(key: jax.Array) -> TrainState:
         k_net, k_env, k_next = jax.random.split(key, 3)
@@ -247,10 +260,7 @@ def make_train(
             params, opt_state, lr = carry
 
             grads, metrics = jax.grad(minibatch_loss, has_aux=True)(params, net, ppo, mb)
-            kl = metrics["kl"]
-            lr = jnp.where(kl > 2 * ppo.desired_kl, lr / 1.5, lr)
-            lr = jnp.where(kl < 0.5 * ppo.desired_kl, lr * 1.5, lr)
-            lr = jnp.clip(lr, ppo.min_lr, ppo.max_lr)
+            lr = adapt_learning_rate(lr, metrics["kl"], ppo)
             opt_state[1].hyperparams["learning_rate"] = lr
             updates, opt_state = optimizer.update(grads, opt_state, params)
             return (optax.apply_updates(params, updates), opt_state, lr), metrics
@@ -298,20 +308,23 @@ def make_train(
             iteration=ts.iteration + 1,
             env_steps=ts.env_steps + ppo.batch_size,
         )
-        done = traj.dones.astype(jnp.float32)
-        episodes = done.sum()
-        metrics.update(
-            {
-                "episodes": episodes,
-                "success_rate": (traj.success * done).sum() / jnp.maximum(episodes, 1),
-                "episode_length_s": (traj.episode_steps * done).sum()
-                / jnp.maximum(episodes, 1)
-                * env.world.episode.dt_s,
-                "reward_per_step": traj.rewards.mean(),
-                "learning_rate": ts.learning_rate,
-                "action_std": jnp.exp(ts.params["params"]["log_std"]).mean(),
-            }
-        )
-        return ts, metrics
+        return ts, {**metrics, **rollout_metrics(ts, traj, env)}
 
     return init, iterate, net
+
+
+def rollout_metrics(ts: TrainState, traj: Transition, env: Environment) -> dict[str, jax.Array]:
+    """Per-iteration rollout metrics (metrics.csv's columns): episodes ended, their success
+    rate and length, the mean reward, the learning rate and the policy's action std."""
+    done = traj.dones.astype(jnp.float32)
+    episodes = done.sum()
+    return {
+        "episodes": episodes,
+        "success_rate": (traj.success * done).sum() / jnp.maximum(episodes, 1),
+        "episode_length_s": (traj.episode_steps * done).sum()
+        / jnp.maximum(episodes, 1)
+        * env.world.episode.dt_s,
+        "reward_per_step": traj.rewards.mean(),
+        "learning_rate": ts.learning_rate,
+        "action_std": jnp.exp(ts.params["params"]["log_std"]).mean(),
+    }
