@@ -1,0 +1,193 @@
+"""Network size as a named, measured reading (issue 30, part 1; docs/performance.md).
+
+    .venv/bin/python benchmarks/network_size_study.py --out /work/studies/network_size
+
+The paper gives no network size. One cached ``dyncatch reproduce`` per size (256-256-128,
+the standard until now; 128-128-64; 64-64) trains ``rl``, ``p_rl``, ``sp_rl`` and
+``gt_rl`` on reactive and random_reactive (each with its own predictor) over 5 seeds at
+4 M steps, and evaluates every policy at 1.6 and 1.8 m/s. Re-running resumes; sizes run
+in the order below, so an interrupted study has the cheapest comparison first.
+
+The criterion, written down before any of these runs existed (commit of this file):
+
+- For each method m, D_m(S) = success at 1.8 m/s of size S minus that of 256-256-128,
+  each the mean over seeds of the seed's mean over the two behaviours (a seed's two runs
+  are independent, so the behaviour-averaged seed is the unit; 5 per size and method).
+- A size S **holds** if D_m(S) >= -0.05 for all four methods (point estimates, as the issue
+  states the criterion) **and** the oracle's plateau holds: ``gt_rl``'s final periodic
+  evaluation success, mean over seeds and behaviours, at least that of 256-256-128 minus
+  0.05.
+- The standard is the smallest size that holds; if none does, 256-256-128 stays. One size
+  for every method: never chosen per method.
+- Every D_m(S) is reported with its 95 % Welch interval and the smallest difference the run
+  resolves; a D whose interval spans 0 is unresolved, and the summary says that a point
+  criterion at 5 seeds carries that risk.
+
+``summary.md`` and ``summary.json`` (in ``--summary-dir``, committed) carry the table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+from dyncatch.cli.main import main, parse
+from dyncatch.evaluation.intervals import welch
+from dyncatch.reproduce.stages import estimate_s
+
+SIZES = ((128, 128, 64), (256, 256, 128), (64, 64))
+REFERENCE = (256, 256, 128)
+METHODS = ("rl", "p_rl", "sp_rl", "gt_rl")
+BEHAVIORS = ("reactive", "random_reactive")
+SPEEDS = ("1.6", "1.8")
+MARGIN = 0.05
+SPEED_MPS = 1.8
+
+
+def size_name(size: tuple[int, ...]) -> str:
+    return "-".join(map(str, size))
+
+
+def study_argv(args, size: tuple[int, ...]) -> list[str]:
+    argv = ["reproduce", "--out", str(args.out / size_name(size)), "--methods", *METHODS]
+    argv += ["--seeds", str(args.seeds), "--train-steps", str(args.train_steps)]
+    argv += ["--episodes", str(args.episodes), "--speeds-mps", *SPEEDS]
+    argv += ["--behaviors", *BEHAVIORS, "--ppo.hidden-sizes", *map(str, size)]
+    argv += ["--no-table-ii", "--transfer-behaviors"]
+    return argv + ["--no-videos", "--no-fig9", "--no-vmap-seeds"]
+
+
+def seed_success(results: dict, method: str) -> list[float] | None:
+    """Per seed, the mean over the behaviours of the seed's success at SPEED_MPS."""
+    cells = [
+        c
+        for c in results["table_i"]["cells"]
+        if c["method"] == method and abs(c["speed_mps"] - SPEED_MPS) < 1e-9
+    ]
+    if {c["behavior"] for c in cells} != set(BEHAVIORS):
+        return None
+    return np.mean([c["per_seed_success"] for c in cells], axis=0).tolist()
+
+
+def plateau(results: dict, method: str = "gt_rl") -> float | None:
+    finals = [
+        r["final_eval_success_rate"]
+        for r in results["training"]
+        if r["method"] == method and r["final_eval_success_rate"] is not None
+    ]
+    return float(np.mean(finals)) if finals else None
+
+
+def train_seconds(results: dict) -> float:
+    return float(np.median([r["wall_s"] for r in results["training"]]))
+
+
+def judge(by_size: dict[str, dict]) -> dict:
+    """The criterion above, over the sizes whose reproduction finished."""
+    ref = by_size.get(size_name(REFERENCE))
+    rows, holds = [], {}
+    if ref is None:
+        return {"rows": rows, "holds": holds, "standard": None}
+    ref_plateau = plateau(ref)
+    for name, res in by_size.items():
+        if name == size_name(REFERENCE):
+            continue
+        ok = True
+        for m in METHODS:
+            a, b = seed_success(res, m), seed_success(ref, m)
+            d = welch(a, b)
+            ok &= d.difference >= -MARGIN
+            lo, hi = d.ci
+            rows.append(
+                {
+                    "size": name,
+                    "method": m,
+                    "success": float(np.mean(a)),
+                    "reference": float(np.mean(b)),
+                    "difference": d.difference,
+                    "ci95": [lo, hi],
+                    "resolvable": d.half_width,
+                    "resolved": not (lo <= 0 <= hi),
+                }
+            )
+        p = plateau(res)
+        plateau_ok = p is not None and ref_plateau is not None and p >= ref_plateau - MARGIN
+        holds[name] = {"methods_hold": bool(ok), "plateau": p, "plateau_holds": plateau_ok,
+                       "holds": bool(ok and plateau_ok)}  # fmt: skip
+    passing = [n for n, h in holds.items() if h["holds"]]
+    finished_all = len(by_size) == len(SIZES)
+    smallest = min(passing, key=lambda n: np.prod([int(w) for w in n.split("-")]), default=None)
+    standard = smallest or (size_name(REFERENCE) if finished_all else None)
+    return {"rows": rows, "holds": holds, "reference_plateau": ref_plateau,
+            "standard": standard, "complete": finished_all}  # fmt: skip
+
+
+def summarize(args) -> dict:
+    by_size = {}
+    for size in SIZES:
+        path = args.out / size_name(size) / "results.json"
+        if path.exists():
+            by_size[size_name(size)] = json.loads(path.read_text())
+    verdict = judge(by_size)
+    lines = [
+        f"Success at {SPEED_MPS} m/s, per method: seed means over {', '.join(BEHAVIORS)}; "
+        f"difference to {size_name(REFERENCE)} with its 95 % Welch interval.",
+        "",
+        "| size | method | success | reference | difference [95 % CI] | resolvable |",
+        "|---|---|---:|---:|---|---:|",
+    ]
+    for r in verdict["rows"]:
+        lo, hi = r["ci95"]
+        lines.append(
+            f"| {r['size']} | {r['method']} | {r['success']:.3f} | {r['reference']:.3f} | "
+            f"{r['difference']:+.3f} [{lo:+.3f}, {hi:+.3f}]"
+            f"{'' if r['resolved'] else ' unresolved'} | {r['resolvable']:.3f} |"
+        )
+    lines += ["", "| size | median training s/seed | gt_rl plateau | holds |"]
+    lines += ["|---|---:|---:|---|"]
+    for name, res in by_size.items():
+        h = verdict["holds"].get(name, {})
+        p = plateau(res)
+        lines.append(
+            f"| {name} | {train_seconds(res):.0f} | {p:.3f} | "
+            f"{'reference' if name == size_name(REFERENCE) else h.get('holds')} |"
+        )
+    lines += ["", f"Standard by the criterion: {verdict['standard'] or 'not decided yet'}."]
+    args.summary_dir.mkdir(parents=True, exist_ok=True)
+    (args.summary_dir / "summary.json").write_text(json.dumps(verdict, indent=2) + "\n")
+    (args.summary_dir / "summary.md").write_text("\n".join(lines) + "\n")
+    return verdict
+
+
+def run(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", type=Path, default=Path("results/network_size"))
+    ap.add_argument("--summary-dir", type=Path, default=Path("benchmarks/results/network_size"))
+    ap.add_argument("--seeds", type=int, default=5)
+    ap.add_argument("--train-steps", type=int, default=4_000_000)
+    ap.add_argument("--episodes", type=int, default=300)
+    ap.add_argument("--dry-run", action="store_true")
+    ap.add_argument("--summarize-only", action="store_true")
+    args = ap.parse_args(argv)
+    if not args.summarize_only:
+        for size in SIZES:
+            cmd = study_argv(args, size)
+            print(" ".join(cmd))
+            print(f"estimated {estimate_s(parse(cmd)[1]) / 3600:.2f} h on 2 cores")
+            if not args.dry_run and main(cmd) != 0:
+                return 2
+            if not args.dry_run:
+                summarize(args)
+    if not args.dry_run:
+        print((args.summary_dir / "summary.md").read_text())
+    return 0
+
+
+if __name__ == "__main__":
+    from dyncatch.utils.jax_setup import setup_jax
+
+    setup_jax()
+    raise SystemExit(run())
