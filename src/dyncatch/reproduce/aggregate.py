@@ -283,3 +283,21 @@ def headroom_gaps(cells: list[dict], speeds, oracle: str, rivals) -> list[dict]:
             if faster is not None:
                 checks.append({**where, **faster})
     return checks
+
+
+def seed_means(
+    cells: list[dict], method: str, speed_mps: float, behaviors: Sequence[str],
+    key: str = "per_seed_success",
+) -> list[float] | None:  # fmt: skip
+    """Per seed, the mean over ``behaviors`` of ``method``'s ``key`` at ``speed_mps`` (a
+    seed's runs on each behaviour are independent, so the behaviour-averaged seed is the
+    unit of a study's interval); None unless every behaviour has the cell."""
+    picked = {
+        c["behavior"]: c[key]
+        for c in cells
+        if c["method"] == method and abs(c["speed_mps"] - speed_mps) < 1e-9
+        and c["behavior"] in behaviors
+    }  # fmt: skip
+    if set(picked) != set(behaviors):
+        return None
+    return np.mean([picked[b] for b in behaviors], axis=0).tolist()

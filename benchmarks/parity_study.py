@@ -1,0 +1,172 @@
+"""Information parity (issue 32, docs/fidelity.md): which difference from the paper's world
+lets monolithic RL catch here, whether the self-aware predictor then holds, and whether a
+memory does what the predictor does.
+
+    .venv/bin/python benchmarks/parity_study.py --out /work/studies/parity [--dry-run]
+
+One cached ``dyncatch reproduce`` per setting: the standard setting (``default``), each
+information reading alone (``READINGS`` below, docs/fidelity.md says what each sets and the
+text that allows it), and all of them with eq. 8 as a state indicator (``paper_literal``
+without ``paper_budget``: the study's budget is the standard 4 M steps). Each trains
+``rl``, ``sp_rl``, ``gt_rl`` and ``rnn_rl`` on reactive and random_reactive (each with its
+own predictor) over ``--seeds`` seeds and evaluates them at 1.6 and 1.8 m/s. Re-running
+resumes; settings run in the order below.
+
+The analysis, written down before any of these runs existed:
+
+- **Primary**, per reading R and method m in (rl, sp_rl): E = success at 1.8 m/s on
+  reactive under R minus under ``default``, Welch's 95 % interval over seeds, its half-width
+  (the smallest effect the run resolves; target <= 0.15). The family of these effects is
+  also Holm-adjusted; a reading "gives rl its catch" when its effect on rl is negative and
+  resolved after Holm.
+- **Secondary**, per setting and behaviour at 1.8 m/s: ``sp_rl - rl`` (does the predictor
+  hold), ``rnn_rl - rl`` and ``sp_rl - rnn_rl`` (does memory do what it does), Welch.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from dyncatch.cli.main import main, parse
+from dyncatch.evaluation.intervals import holm, welch
+from dyncatch.reproduce.aggregate import seed_means
+from dyncatch.reproduce.readings import PAPER_LITERAL, setting_name
+from dyncatch.reproduce.stages import estimate_s
+
+READINGS = ("gamma_held", "paper_observation", "fov_half_angle", "beta_heading",
+            "arm_on_sighting")  # fmt: skip
+LITERAL_AT_BUDGET = tuple(r for r in PAPER_LITERAL if r != "paper_budget")
+SETTINGS = ((), *((r,) for r in READINGS), LITERAL_AT_BUDGET)
+METHODS = ("rl", "sp_rl", "gt_rl", "rnn_rl")
+BEHAVIORS = ("reactive", "random_reactive")
+SPEEDS = ("1.6", "1.8")
+SPEED_MPS = 1.8
+PRIMARY_METHODS = ("rl", "sp_rl")
+PAIRS = (("sp_rl", "rl"), ("rnn_rl", "rl"), ("sp_rl", "rnn_rl"))
+
+
+def study_argv(args, setting: tuple[str, ...]) -> list[str]:
+    argv = ["reproduce", "--out", str(args.out / setting_name(setting)), "--methods", *METHODS]
+    argv += ["--seeds", str(args.seeds), "--train-steps", str(args.train_steps)]
+    argv += ["--episodes", str(args.episodes), "--speeds-mps", *SPEEDS]
+    argv += ["--behaviors", *BEHAVIORS, "--no-table-ii", "--transfer-behaviors"]
+    argv += ["--no-videos", "--no-fig9", "--no-vmap-seeds"]
+    if setting:
+        argv += ["--setting", *setting]
+    if args.hidden_sizes:
+        argv += ["--ppo.hidden-sizes", *map(str, args.hidden_sizes)]
+    return argv
+
+
+def _seeds(results: dict, method: str, behavior: str) -> list[float] | None:
+    return seed_means(results["table_i"]["cells"], method, SPEED_MPS, (behavior,))
+
+
+def _row(label: str, a: list[float] | None, b: list[float] | None) -> dict | None:
+    if a is None or b is None or min(len(a), len(b)) < 2:
+        return None
+    d = welch(a, b)
+    return {"label": label, "difference": d.difference, "ci95": list(d.ci),
+            "half_width": d.half_width, "p_value": d.p_value}  # fmt: skip
+
+
+def analyse(by_setting: dict[str, dict]) -> dict:
+    base = by_setting.get("default")
+    primary = []
+    for name, res in by_setting.items():
+        if name == "default" or base is None:
+            continue
+        for m in PRIMARY_METHODS:
+            row = _row(f"{name}: {m}", _seeds(res, m, "reactive"), _seeds(base, m, "reactive"))
+            if row is not None:
+                primary.append({"setting": name, "method": m, **row})
+    for row, p in zip(primary, holm([r["p_value"] for r in primary]), strict=True):
+        row["p_holm"] = float(p)
+        lo, hi = row["ci95"]
+        row["verdict"] = "unresolved" if p >= 0.05 else ("lowers" if hi < 0 else "raises")
+    secondary = []
+    for name, res in by_setting.items():
+        for b in BEHAVIORS:
+            for x, y in PAIRS:
+                row = _row(f"{name}, {b}: {x} - {y}", _seeds(res, x, b), _seeds(res, y, b))
+                if row is not None:
+                    secondary.append({"setting": name, "behavior": b, **row})
+    gives = [r["setting"] for r in primary if r["method"] == "rl" and r["verdict"] == "lowers"]
+    return {"primary": primary, "secondary": secondary, "gives_rl_its_catch": gives}
+
+
+def _line(r: dict) -> str:
+    lo, hi = r["ci95"]
+    return f"{r['difference']:+.3f} [{lo:+.3f}, {hi:+.3f}] | {r['half_width']:.3f}"
+
+
+def summarize(args) -> dict:
+    by_setting = {}
+    for setting in SETTINGS:
+        path = args.out / setting_name(setting) / "results.json"
+        if path.exists():
+            by_setting[setting_name(setting)] = json.loads(path.read_text())
+    result = analyse(by_setting)
+    lines = [
+        f"Primary: each reading's effect on success at {SPEED_MPS} m/s, reactive, against "
+        "default (Welch 95 % CI over seeds; Holm over the family).",
+        "",
+        "| setting | method | effect [95 % CI] | half-width | p (Holm) | verdict |",
+        "|---|---|---|---:|---:|---|",
+    ]
+    lines += [
+        f"| {r['setting']} | {r['method']} | {_line(r)} | {r['p_holm']:.3f} | {r['verdict']} |"
+        for r in result["primary"]
+    ]
+    lines += ["", f"Secondary: differences between methods at {SPEED_MPS} m/s.", ""]
+    lines += [
+        "| setting | behaviour | difference | [95 % CI] | half-width |",
+        "|---|---|---|---|---:|",
+    ]
+    lines += [
+        f"| {r['setting']} | {r['behavior']} | {r['label'].split(': ')[-1]} | {_line(r)} |"
+        for r in result["secondary"]
+    ]
+    gives = ", ".join(result["gives_rl_its_catch"]) or "none resolved"
+    lines += ["", f"Readings whose removal of information resolvedly lowers rl: {gives}."]
+    args.summary_dir.mkdir(parents=True, exist_ok=True)
+    (args.summary_dir / "summary.json").write_text(json.dumps(result, indent=2) + "\n")
+    (args.summary_dir / "summary.md").write_text("\n".join(lines) + "\n")
+    return result
+
+
+def run(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", type=Path, default=Path("results/parity"))
+    ap.add_argument("--summary-dir", type=Path, default=Path("benchmarks/results/parity"))
+    ap.add_argument("--seeds", type=int, default=5)
+    ap.add_argument("--train-steps", type=int, default=4_000_000)
+    ap.add_argument("--episodes", type=int, default=300)
+    ap.add_argument("--hidden-sizes", type=int, nargs="*", default=None,
+                    help="the PPO network (default: the standard setting's)")  # fmt: skip
+    ap.add_argument("--dry-run", action="store_true")
+    ap.add_argument("--summarize-only", action="store_true")
+    args = ap.parse_args(argv)
+    total = 0.0
+    for setting in () if args.summarize_only else SETTINGS:
+        cmd = study_argv(args, setting)
+        print(" ".join(cmd))
+        total += estimate_s(parse(cmd)[1])
+        if not args.dry_run:
+            if main(cmd) != 0:
+                return 2
+            summarize(args)
+    print(f"estimated {total / 3600:.2f} h on 2 cores")
+    if not args.dry_run:
+        summarize(args)
+        print((args.summary_dir / "summary.md").read_text())
+    return 0
+
+
+if __name__ == "__main__":
+    from dyncatch.utils.jax_setup import setup_jax
+
+    setup_jax()
+    raise SystemExit(run())
