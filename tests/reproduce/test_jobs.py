@@ -18,8 +18,10 @@ from dyncatch.reproduce.stages import (
     grid_jobs,
     grid_rows,
     policies,
+    predictor_jobs,
     train_jobs,
 )
+from dyncatch.reproduce.validate import validate_plan
 from dyncatch.rl.methods import trained_methods
 
 TRAINED = trained_methods(reproduced_methods())
@@ -205,3 +207,14 @@ def test_fig6_takes_table_i_cells_where_it_has_them_and_evaluates_the_rest(tmp_p
     assert fig6_evaluated_columns(Plan(fig6_speed_mps=1.7, fig6_behaviors=("reactive",))) == (
         "reactive",
     )
+
+
+def test_a_second_seed_set_trains_and_evaluates_its_own_seeds(tmp_path):
+    """``--first-seed 10``: runs 10 and 11, predictors seeded 10, cells of seeds 10 and 11."""
+    plan = Plan(seeds=2, first_seed=10, behaviors=("reactive",), vmap_seeds=False)
+    assert [_seeds(j)[2] for j in train_jobs(plan, tmp_path)] == [(10,), (11,)] * len(TRAINED)
+    assert {c.seed for j in predictor_jobs(plan, tmp_path) for c in (j.cfg,)} == {10}
+    evaluated = {s for m, s in policies(plan) if s is not None}
+    assert evaluated == {10, 11}
+    with pytest.raises(ValueError, match="--first-seed"):
+        validate_plan(dataclasses.replace(plan, first_seed=-1))

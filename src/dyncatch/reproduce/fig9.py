@@ -216,7 +216,7 @@ def _cells(plan: Plan, rows) -> list[tuple]:
         for scene in plan.fig9_scenes
         for behavior in plan.fig9_columns
         for r in rows
-        for seed in (range(plan.seeds) if r.learned else (None,))
+        for seed in (plan.seed_ids if r.learned else (None,))
     ]
 
 
@@ -283,10 +283,11 @@ class Fig9VideoJob(Job):
 
 
 def video_jobs(plan: Plan, out: Path, row: str = FILMED_ROW) -> list[Job]:
-    """One GIF per scene of ``row`` (seed 0) on the first Fig. 9 behaviour, where missing."""
+    """One GIF per scene of ``row`` (the first seed) on the first Fig. 9 behaviour, where
+    missing."""
     r = row_named(row)
     return [
-        Fig9VideoJob(out, deployment(plan, out, sc, plan.fig9_columns[0], r, 0), row)
+        Fig9VideoJob(out, deployment(plan, out, sc, plan.fig9_columns[0], r, plan.first_seed), row)
         for sc in plan.fig9_scenes
         if not _video_path(out, sc).with_suffix(".json").exists()
     ]

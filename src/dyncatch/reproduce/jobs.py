@@ -252,7 +252,8 @@ class EvalJob(Job):
 
 @dataclass(frozen=True)
 class VideoJob(Job):
-    """A GIF of a method's policy (seed 0) on a behaviour, with its predicted velocity."""
+    """A GIF of a method's policy (the plan's first seed) on a behaviour, with its predicted
+    velocity."""
 
     out: Path
     behavior: str

@@ -62,6 +62,11 @@ class Plan:
     seeds: int = 10
     """Training seeds per (method, behaviour): the unit of every CI (seed SDs of 0.05-0.23
     at 1.8 m/s, so fewer than 10 leave CIs wider than the differences judged)."""
+    first_seed: int = 0
+    """The first training seed: runs are seeds ``first_seed`` ... ``first_seed + seeds - 1``
+    and the predictors are trained with seed ``first_seed``, so ``--first-seed 10`` into
+    another ``--out`` is a second, independent seed set of the same plan (the primary
+    endpoints judged twice, docs/results.md)."""
     behaviors: tuple[BehaviorName, ...] = ("circle", "bounce", "reactive", "random_reactive")
     """Behaviours trained on, each with its own predictor (Fig. 5 panels; Fig. 6 columns)."""
     train_steps: int = 4_000_000
@@ -193,6 +198,11 @@ class Plan:
     def method_names(self) -> tuple[str, ...]:
         """The methods compared, in registry order."""
         return chosen(self.methods)
+
+    @property
+    def seed_ids(self) -> range:
+        """The training seeds, ``first_seed`` onward."""
+        return range(self.first_seed, self.first_seed + self.seeds)
 
     @property
     def training_runs(self) -> int:

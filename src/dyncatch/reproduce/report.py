@@ -59,7 +59,7 @@ def curves(plan: Plan, out: Path) -> dict:
     result = {}
     for behavior in plan.behaviors:
         for method in trained_methods(plan.method_names):
-            runs = [read_curve(run_dir(out, behavior, method, s)) for s in range(plan.seeds)]
+            runs = [read_curve(run_dir(out, behavior, method, s)) for s in plan.seed_ids]
             result[(behavior, method)] = {
                 k: np.stack([r[k][: min(len(q[k]) for q in runs)] for r in runs]) for k in runs[0]
             }

@@ -20,7 +20,8 @@ def render_report(r: dict, plan: Plan) -> str:
         f"- machine: {m['cpu']}, {m['cores']} cores, jax {m['jax']} ({m['backend']})",
         f"- wall time: {r['wall']['total_s'] / 60:.1f} min in all "
         f"({r['wall']['this_invocation_s'] / 60:.1f} min in the last invocation)",
-        f"- {plan.seeds} seed(s) x {len(trained_methods(plan.method_names))} learned methods x "
+        f"- {plan.seeds} seed(s) (seeds {plan.first_seed}-{plan.seed_ids[-1]}) x "
+        f"{len(trained_methods(plan.method_names))} learned methods x "
         f"{len(plan.behaviors)} "
         f"behaviours, {plan.train_steps / 1e6:g} M environment steps per run, "
         f"{plan.episodes} evaluation episodes per cell (the same evaluation seeds for every "

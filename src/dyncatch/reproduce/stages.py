@@ -95,6 +95,7 @@ def predictor_jobs(plan: Plan, out: Path) -> list[Job]:
                 train=train,
                 world=plan.world.with_behavior(behavior),
                 tracker_train=tracker,
+                seed=plan.first_seed,
             )
             jobs.append(PredictorJob(cfg))
     return jobs
@@ -141,7 +142,7 @@ def train_jobs(plan: Plan, out: Path) -> list[Job]:
     jobs = []
     for behavior in plan.behaviors:
         for method in trained_methods(plan.method_names):
-            cfgs = [run_cfg(plan, out, behavior, method, s) for s in range(plan.seeds)]
+            cfgs = [run_cfg(plan, out, behavior, method, s) for s in plan.seed_ids]
             todo = tuple(c for c in cfgs if not run_done(c))
             groups = [todo] if plan.vmap_seeds and todo else [(c,) for c in todo]
             jobs += [TrainJob(g) for g in groups]
@@ -152,7 +153,7 @@ def policies(plan: Plan, table: str | None = None) -> list[tuple[str, int | None
     """(name, seed or None) of every evaluated policy: each method compared over seeds,
     then each baseline (not in the transfer table: a baseline is trained on nothing, and
     its cells on a behaviour are Fig. 6's)."""
-    methods = [(m, s) for m in plan.method_names for s in range(plan.seeds)]
+    methods = [(m, s) for m in plan.method_names for s in plan.seed_ids]
     return methods + ([] if table == "transfer" else [(b, None) for b in BASELINES])
 
 
@@ -238,7 +239,7 @@ def video_jobs(plan: Plan, out: Path) -> list[Job]:
             b,
             source_behavior(plan, b),
             plan.fig6_speed_mps,
-            policy_spec(plan, out, b, m, 0),
+            policy_spec(plan, out, b, m, plan.first_seed),
         )
         for m, b in _clips(plan)
         if not _clip_json(out, m, b).exists()

@@ -28,9 +28,10 @@ def time_to_success(curve: dict, threshold: float = 0.9) -> dict:
     return {"samples": int(curve["eval_env_steps"][i]), "time_s": float(curve["eval_time_s"][i])}
 
 
-def training_rows(data: dict) -> list[dict]:
+def training_rows(data: dict, seed_ids=None) -> list[dict]:
     """A row per training run of ``report.curves``: final evaluation, wall seconds, and
-    the samples and seconds to 0.9 success."""
+    the samples and seconds to 0.9 success; ``seed_ids`` names the stacked seeds (default
+    0, 1, ...)."""
     training = []
     for (behavior, method), d in data.items():
         for s in range(d["env_steps"].shape[0]):
@@ -39,7 +40,7 @@ def training_rows(data: dict) -> list[dict]:
                 {
                     "behavior": behavior,
                     "method": method,
-                    "seed": s,
+                    "seed": s if seed_ids is None else seed_ids[s],
                     "final_eval_success_rate": float(curve["eval_success_rate"][-1])
                     if curve["eval_success_rate"].size
                     else None,
@@ -145,7 +146,7 @@ def results(plan: Plan, out: Path, outputs: dict, command: str, commit: str) -> 
         }
         if outputs.get("transfer")
         else None,
-        "training": training_rows(data),
+        "training": training_rows(data, plan.seed_ids),
         "videos": outputs.get("videos") or [],
         "fig9": {
             "cells": fig9_cells,

@@ -18,6 +18,8 @@ def validate_plan(plan: Plan) -> Plan:
         raise ValueError("--quick and --power are two profiles: choose one")
     if plan.seeds < 1:
         raise ValueError(f"--seeds must be >= 1, got {plan.seeds}")
+    if plan.first_seed < 0:
+        raise ValueError(f"--first-seed must be >= 0, got {plan.first_seed}")
     validate_executor(plan)
     if plan.train_steps < plan.ppo.batch_size:
         raise ValueError(
