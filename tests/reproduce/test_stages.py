@@ -33,25 +33,36 @@ def test_switched_off_stages_leave_the_list():
     # The constants and counts summed per stage; evaluation counts its compilations, one per
     # (policy, behaviour) of a grid and per (policy, scene, behaviour) of Fig. 9 (blend and
     # seeds share one). Full (5 methods, 4 trained, 2 baselines, 10 seeds, 300 episodes =
-    # 0.9 s a cell): training 4 x 4 behaviours x 10 seeds x 4 M / 22 000 + 16 groups x 20 s
-    # = 29 411 s; Table I 52 policies x 6 speeds x 2 rows x 0.9 + 7 x 2 x 20 = 842; Fig. 6
+    # 0.9 s a cell): training 4 x 4 behaviours x 10 seeds x 4 M x 44.47 us + 16 groups x 20 s
+    # = 28 783 s (a sample: (4.8 us + 5.9e-12 s x 5 467 904 FLOPs) x 1.2 = 44.47 us); Table I 52 policies x 6 speeds x 2 rows x 0.9 + 7 x 2 x 20 = 842; Fig. 6
     # circle and bounce (reactive, random_reactive are Table I's) 2 x (52 x 0.9 + 7 x 20)
     # = 374; transfer 3 columns x (50 x 0.9 + 5 x 20) = 435; Fig. 9 22 cells x 24 (scene,
     # behaviour) x 3 s + 72 compilations x 20 = 3 024; predictors 248, Table II 128,
     # videos 40 + 60. Power (rl, sp_rl; 30 seeds; 2 behaviours): training 120 x 4 M /
-    # 22 000 + 4 x 20 = 21 898; Table I 62 x 2 x 2 x 0.9 + 4 x 2 x 20 = 383; predictors 92.
-    [("full", 34561.109090909085), ("quick", 488.5090909090909), ("power", 22373.38181818182)],
+    # 44.47 us + 4 x 20 = 21 427; Table I 62 x 2 x 2 x 0.9 + 4 x 2 x 20 = 383; predictors 92.
+    [("full", 33932.766604799996), ("quick", 429.04096768), ("power", 21902.124953600003)],
 )
 def test_the_estimate_is_the_one_printed_before_the_stage_list(profile, seconds):
     plan = PROFILES[profile]
     assert estimate_s(plan) == pytest.approx(seconds, rel=1e-12)
     assert f"{estimate_s(plan) / 60:.0f}" == f"{seconds / 60:.0f}"
     tracked = Plan(methods=tuple(m for m in METHODS if not METHODS[m].memory))
-    assert estimate_s(tracked) == pytest.approx(43763.83636363636, rel=1e-12)
+    assert estimate_s(tracked) == pytest.approx(42978.408256, rel=1e-12)
     # The two memory methods: two more trained methods at the same constants.
-    assert estimate_s(Plan(methods=tuple(METHODS))) == pytest.approx(61455.29090909091, rel=1e-12)
+    assert estimate_s(Plan(methods=tuple(METHODS))) == pytest.approx(60355.6915584, rel=1e-12)
     plain = dataclasses.replace(PROFILES["quick"], videos=False, fig9=False)
-    assert estimate_s(plain) == pytest.approx(406.1090909090909, rel=1e-12)
+    assert estimate_s(plain) == pytest.approx(346.64096768, rel=1e-12)
+
+
+def test_training_time_scales_with_the_networks_flops():
+    """Half the FLOPs per sample: the per-sample time less by half its FLOP part only."""
+    from dyncatch.reproduce.estimate import samples_per_s, training_s
+
+    full = PROFILES["full"]
+    small = dataclasses.replace(full, ppo=dataclasses.replace(full.ppo, hidden_sizes=(64, 64)))
+    # 264 448 FLOPs a sample at 64-64: (4.8 us + 5.9e-12 s x 264 448) x 1.2 = 7.632 us.
+    assert 1 / samples_per_s(small) == pytest.approx(7.6322e-6, rel=1e-4)
+    assert training_s(small) < training_s(full) / 5
 
 
 def test_the_estimate_counts_the_transfer_and_power_stages():

@@ -13,14 +13,26 @@ constants are re-measured when the full reproduction is re-run.
 
 from __future__ import annotations
 
+from dyncatch.bench.ppo_bench import ppo_flops_per_sample
 from dyncatch.policies.registry import BASELINES
 from dyncatch.predictor.table import all_kinds
 from dyncatch.reproduce.fig9 import rows_of
 from dyncatch.reproduce.layout import fig6_evaluated_columns
 from dyncatch.reproduce.plan import Plan
 from dyncatch.rl.methods import predictor_kinds
+from dyncatch.sim.api import OBS_DIM
 
-EST_SAMPLES_PER_S = 22_000.0
+EST_S_PER_SAMPLE = 4.8e-6
+"""Seconds per training sample outside the networks (simulator, GAE, normaliser): the
+intercept of the two measured sizes below."""
+EST_S_PER_PPO_FLOP = 5.9e-12
+"""Seconds per PPO FLOP (``bench.ppo_bench.ppo_flops_per_sample``'s count). With the line
+above it fits ``dyncatch bench ppo`` on the idle 2-core Xeon: 27,000 samples/s at
+256-256-128 (5.47 M FLOPs per sample) and 76,322 at 128-128-64 (1.41 M)."""
+EST_TRAIN_OVERHEAD = 1.2
+"""A training run's time over its PPO iterations' (periodic evaluations, logs,
+checkpoints): the full run's 551-582 s per 3-seed group of 4 M steps at 256-256-128, about
+22,000 samples/s against the benchmark's 27,000."""
 EST_COMPILE_S = 20.0  # one compilation: a training group's iteration, a Fig. 9 row's rollout
 EST_EVAL_S_PER_1000_EPISODES = 3.0
 EST_PREDICTOR_S_PER_M_STEPS = 8.0
@@ -37,9 +49,15 @@ def table_ii_s(plan: Plan) -> float:
     return steps / 1e6 * EST_PREDICTOR_S_PER_M_STEPS
 
 
+def samples_per_s(plan: Plan) -> float:
+    """Training samples per second at the plan's network size (``rl``'s input)."""
+    flops = ppo_flops_per_sample(OBS_DIM, plan.ppo)["total"]
+    return 1.0 / ((EST_S_PER_SAMPLE + EST_S_PER_PPO_FLOP * flops) * EST_TRAIN_OVERHEAD)
+
+
 def training_s(plan: Plan) -> float:
     groups = plan.training_runs // plan.seeds
-    return plan.training_runs * plan.train_steps / EST_SAMPLES_PER_S + groups * EST_COMPILE_S
+    return plan.training_runs * plan.train_steps / samples_per_s(plan) + groups * EST_COMPILE_S
 
 
 def _policies(plan: Plan) -> int:
