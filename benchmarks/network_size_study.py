@@ -129,6 +129,14 @@ def summarize(args) -> dict:
         if path.exists():
             by_size[size_name(size)] = json.loads(path.read_text())
     verdict = judge(by_size)
+    verdict["per_size"] = {
+        name: {
+            "seed_success": {m: seed_success(res, m) for m in METHODS},
+            "gt_rl_plateau": plateau(res),
+            "median_training_s": train_seconds(res),
+        }
+        for name, res in by_size.items()
+    }
     lines = [
         f"Success at {SPEED_MPS} m/s, per method: seed means over {', '.join(BEHAVIORS)}; "
         f"difference to {size_name(REFERENCE)} with its 95 % Welch interval.",
@@ -143,6 +151,15 @@ def summarize(args) -> dict:
             f"{r['difference']:+.3f} [{lo:+.3f}, {hi:+.3f}]"
             f"{'' if r['resolved'] else ' unresolved'} | {r['resolvable']:.3f} |"
         )
+    lines += [
+        "",
+        f"Success at {SPEED_MPS} m/s, mean over seeds of the behaviour-averaged seed:",
+        "",
+    ]
+    lines += ["| size | " + " | ".join(METHODS) + " |", "|---|" + "---:|" * len(METHODS)]
+    for name, d in verdict["per_size"].items():
+        means = [np.mean(v) if v else float("nan") for v in d["seed_success"].values()]
+        lines.append(f"| {name} | " + " | ".join(f"{x:.3f}" for x in means) + " |")
     lines += ["", "| size | median training s/seed | gt_rl plateau | holds |"]
     lines += ["|---|---:|---:|---|"]
     for name, res in by_size.items():
@@ -179,6 +196,7 @@ def run(argv: list[str] | None = None) -> int:
             if not args.dry_run:
                 summarize(args)
     if not args.dry_run:
+        summarize(args)
         print((args.summary_dir / "summary.md").read_text())
     return 0
 
