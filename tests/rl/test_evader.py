@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from dyncatch.cli.main import main
+from dyncatch.policies.intercept import intercept_policy
 from dyncatch.policies.pursuit import pursuit_policy
 from dyncatch.rl.config import PPOCfg
 from dyncatch.rl.evader import EvaderRewardCfg, evader_env
@@ -67,6 +68,23 @@ class TestEnvironment:
         assert float(r) == pytest.approx(-1.0)
 
 
+def test_a_mixture_plays_the_drawn_pursuer():
+    pursuers = [pursuit_policy(WORLD), intercept_policy(WORLD)]
+    mixed = evader_env(WORLD, pursuers)
+    alone = evader_env(WORLD, pursuers[1])
+    states = jax.vmap(mixed.reset)(jax.random.split(jax.random.key(0), 64))
+    drawn = np.asarray(states.pursuer_index)
+    assert set(drawn) == {0, 1}
+    i = int(np.argmax(drawn == 1))
+    s = jax.tree.map(lambda x: x[i], states)
+    carries = s.pursuer_carries[1:]
+    single = s.replace(pursuer_index=jnp.zeros((), jnp.int32), pursuer_carries=carries)
+    a = jax.jit(mixed.step)(s, jnp.array([0.1]))[0]
+    b = jax.jit(alone.step)(single, jnp.array([0.1]))[0]
+    np.testing.assert_allclose(a.world.robot.vel_body_mps, b.world.robot.vel_body_mps, atol=1e-6)
+    np.testing.assert_allclose(a.world.target.xy_m, b.world.target.xy_m, atol=1e-6)
+
+
 def test_ppo_trains_it_unchanged(env):
     init, iterate, _ = make_train(env, TINY)
     ts = jax.jit(init)(jax.random.key(0))
@@ -105,7 +123,7 @@ class TestTrainEvader:
             world.replace(target=world.target.replace(evader_checkpoint=str(cfg.out)))
         )
         net = evader_net(world)
-        assert net.header["against"] == "pursuit" and net.header["env_steps"] == 256
+        assert net.header["against"] == ["pursuit"] and net.header["env_steps"] == 256
         assert [k.shape for k, _ in net.layers] == [(EVADER_OBS_DIM, 16), (16, 1)]
         # An episode through the ordinary step, twice from one key: the same trajectory.
         run = jax.jit(lambda key: _episode(key, world))
@@ -118,8 +136,8 @@ class TestTrainEvader:
         cfg, _ = trained
         with pytest.raises(ValueError, match="exists"):
             train_evader(cfg)
-        with pytest.raises(ValueError, match="--against 'nobody'"):
-            train_evader(dataclasses.replace(cfg, against="nobody"))
+        with pytest.raises(ValueError, match=r"--against \['nobody'\]"):
+            train_evader(dataclasses.replace(cfg, against=("pursuit", "nobody")))
 
     def test_cli_names_the_fix_for_a_missing_checkpoint(self, capsys, tmp_path):
         rc = main(

@@ -30,8 +30,9 @@ from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.state import EnvState, Obs
 
 PURSUER_STREAM = 0x9E5
-"""The pursuer's key at a step is the world key folded with this (the world's own draws are
-unchanged; the scripted pursuers ignore their key)."""
+"""The pursuer's key at a step (and the draw of the episode's pursuer at reset) is the world
+key folded with this (the world's own draws are unchanged; the scripted pursuers ignore
+their key)."""
 
 
 @struct.dataclass
@@ -63,11 +64,14 @@ class EvaderObs:
 
 @struct.dataclass
 class EvaderEnvState:
-    """The world's state, the pursuer's observation of it and the pursuer's carry."""
+    """The world's state, the pursuers' observation of it, which pursuer plays this episode
+    and every pursuer's carry (only the playing one's moves)."""
 
     world: EnvState
     world_obs: Obs
-    pursuer_carry: Any
+    pursuer_index: jax.Array
+    """The pursuer of this episode, () int32, an index into ``EvaderEnv.pursuers``."""
+    pursuer_carries: tuple
 
     @property
     def key(self) -> jax.Array:
@@ -106,14 +110,32 @@ class EvaderEnv:
 
     world: WorldCfg
     """The world, its behaviour ``commanded``."""
-    pursuer: Any
-    """The frozen pursuer (``frozen_pursuer``)."""
+    pursuers: tuple
+    """The frozen pursuers (``frozen_pursuer``), one drawn per episode."""
     reward: EvaderRewardCfg = EvaderRewardCfg()
 
     def reset(self, key: jax.Array) -> EvaderEnvState:
         ws = sim_env.reset(key, self.world)
         obs = sim_env.observe(ws, self.world)
-        return EvaderEnvState(ws, obs, self.pursuer.init_carry(ws, obs))
+        k = jax.random.fold_in(key, PURSUER_STREAM)
+        index = jax.random.randint(k, (), 0, len(self.pursuers))
+        carries = tuple(p.init_carry(ws, obs) for p in self.pursuers)
+        return EvaderEnvState(ws, obs, index, carries)
+
+    def _pursue(self, state: EvaderEnvState, ws: EnvState, key: jax.Array):
+        """(every pursuer's carry, the command (3,)) of the episode's pursuer."""
+
+        def branch(i):
+            def run(carries):
+                carry, command = self.pursuers[i].step(carries[i], ws, state.world_obs, key)
+                return carries[:i] + (carry,) + carries[i + 1 :], command
+
+            return run
+
+        if len(self.pursuers) == 1:
+            return branch(0)(state.pursuer_carries)
+        branches = [branch(i) for i in range(len(self.pursuers))]
+        return jax.lax.switch(state.pursuer_index, branches, state.pursuer_carries)
 
     def observe(self, state: EvaderEnvState) -> EvaderObs:
         return EvaderObs(evader_features(state.world.target, state.world.robot, self.world))
@@ -127,7 +149,7 @@ class EvaderEnv:
         behavior_state = ws.target.behavior_state.replace(turn_rad=turn)
         ws = ws.replace(target=ws.target.replace(behavior_state=behavior_state))
         key = jax.random.fold_in(ws.key, PURSUER_STREAM)
-        carry, command = self.pursuer.step(state.pursuer_carry, ws, state.world_obs, key)
+        carries, command = self._pursue(state, ws, key)
         next_ws, next_obs, _, _, world_info = sim_env.step(ws, command, self.world)
         caught = world_info["success"]
         max_steps = self.world.episode.max_steps
@@ -146,7 +168,7 @@ class EvaderEnv:
             caught=caught,
             distance_m=next_ws.distance_m,
         )
-        next_state = EvaderEnvState(next_ws, next_obs, carry)
+        next_state = EvaderEnvState(next_ws, next_obs, state.pursuer_index, carries)
         reward = sum(terms.values())
         return next_state, self.observe(next_state), reward, caught | truncated, info
 
@@ -165,9 +187,12 @@ class EvaderEnv:
         return Spec((1,), jnp.full((1,), -TURN_LIMIT_RAD), jnp.full((1,), TURN_LIMIT_RAD))
 
 
-def evader_env(world: WorldCfg, pursuer, reward: EvaderRewardCfg | None = None) -> EvaderEnv:
-    """An ``EvaderEnv`` in ``world`` (its behaviour set to ``commanded``) against ``pursuer``
-    (a policy built for that world: ``policies.registry.BASELINES[name](world)``)."""
-    return EvaderEnv(
-        world.with_behavior("commanded"), frozen_pursuer(pursuer), reward or EvaderRewardCfg()
-    )
+def evader_env(world: WorldCfg, pursuers, reward: EvaderRewardCfg | None = None) -> EvaderEnv:
+    """An ``EvaderEnv`` in ``world`` (its behaviour set to ``commanded``) against a pursuer
+    or a list or tuple of them, one drawn per episode (policies built for that world:
+    ``policies.registry.BASELINES[name](world)``)."""
+    pursuers = tuple(pursuers) if isinstance(pursuers, list | tuple) else (pursuers,)
+    if not pursuers:
+        raise ValueError("give the evader at least one pursuer")
+    frozen = tuple(frozen_pursuer(p) for p in pursuers)
+    return EvaderEnv(world.with_behavior("commanded"), frozen, reward or EvaderRewardCfg())

@@ -43,9 +43,9 @@ EVADER_WORLD = WorldCfg().replace(
 class EvaderTrainCfg:
     """Train a target (the evader) with PPO against a frozen pursuer."""
 
-    against: str = "pursuit"
-    """The frozen pursuer, a scripted baseline of dyncatch.policies.registry.BASELINES
-    (pursuit, intercept)."""
+    against: tuple[str, ...] = ("pursuit",)
+    """The frozen pursuers, scripted baselines of dyncatch.policies.registry.BASELINES
+    (pursuit, intercept); with several, each episode draws one uniformly."""
     total_steps: int = 2_000_000
     """Environment steps to train for (rounded up to whole iterations)."""
     seed: int = 0
@@ -67,7 +67,7 @@ def evader_header(cfg: EvaderTrainCfg) -> dict:
     """What an evader checkpoint records beyond its architecture."""
     return {
         "features": list(FEATURE_NAMES),
-        "against": cfg.against,
+        "against": list(cfg.against),
         "seed": cfg.seed,
         "total_steps": cfg.total_steps,
         "reward": dataclasses.asdict(cfg.reward),
@@ -94,8 +94,9 @@ def evader_net_of(ts: TrainState, header: dict) -> EvaderNet:
 
 
 def _validate(cfg: EvaderTrainCfg) -> None:
-    if cfg.against not in BASELINES:
-        raise ValueError(f"--against {cfg.against!r}: choose one of {', '.join(BASELINES)}")
+    bad = [name for name in cfg.against if name not in BASELINES]
+    if bad or not cfg.against:
+        raise ValueError(f"--against {bad or '()'}: choose from {', '.join(BASELINES)}")
     if cfg.total_steps < 1 or cfg.checkpoint_every < 1:
         raise ValueError("--total-steps and --checkpoint-every must be >= 1")
     validate_ppo(cfg.ppo)
@@ -110,13 +111,14 @@ def train_evader(cfg: EvaderTrainCfg, progress: Progress | None = None) -> dict[
     path = cfg.out / EVADER_CHECKPOINT
     if path.exists():
         raise ValueError(f"{path} exists: choose another --out (evader runs do not resume)")
-    env = evader_env(cfg.world, BASELINES[cfg.against](cfg.world), cfg.reward)
+    pursuers = [BASELINES[name](cfg.world) for name in cfg.against]
+    env = evader_env(cfg.world, pursuers, cfg.reward)
     init, iterate, _ = make_train(env, cfg.ppo)
     iterate = jax.jit(iterate)
     ts = jax.jit(init)(jax.random.key(cfg.seed))
     header = evader_header(cfg)
     total_iters = -(-cfg.total_steps // cfg.ppo.batch_size)
-    update = (progress or NoProgress()).task(f"evader vs {cfg.against}", total_iters)
+    update = (progress or NoProgress()).task(f"evader vs {'+'.join(cfg.against)}", total_iters)
     update(0, "compiling")
     cfg.out.mkdir(parents=True, exist_ok=True)
     log = MetricLog(cfg.out, 0, ("csv",), header)
