@@ -104,6 +104,8 @@ def test_exported_actor_is_the_trainers_mean_turn(env):
     want = jax.vmap(lambda m: to_command(m, env))(mean)[:, 0]
     got = jax.vmap(exported.mean_turn)(x)
     np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-5)
+    log_std = float(ts.params["params"]["log_std"][0])
+    assert exported.action_std == pytest.approx(np.exp(log_std))
 
 
 @pytest.fixture(scope="module")

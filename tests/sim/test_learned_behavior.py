@@ -46,7 +46,7 @@ def _bodies(target_xy, heading, speed, robot_xy, robot_yaw=0.0, robot_vel=(0.0, 
     return target, robot
 
 
-def _away_net(gain: float = -1.0) -> EvaderNet:
+def _away_net(gain: float = -1.0, action_std: float | None = None) -> EvaderNet:
     """One linear layer: turn = clip(gain * robot_rel_left_m, -1, 1) * pi (away from a robot
     on its left for a negative gain); identity normaliser."""
     kernel = np.zeros((EVADER_OBS_DIM, 1), np.float32)
@@ -57,6 +57,7 @@ def _away_net(gain: float = -1.0) -> EvaderNet:
         np.ones(EVADER_OBS_DIM, np.float32),
         math.pi,
         {"features": list(FEATURE_NAMES)},
+        action_std,
     )
 
 
@@ -89,9 +90,24 @@ def test_learned_heading_is_the_networks_mean_turn(away_file):
     assert float(state.turn_rad) == pytest.approx(-0.5 * math.pi, abs=1e-6)
 
 
-def _learned_world(path: str) -> WorldCfg:
+def _learned_world(path: str, sample: bool = False) -> WorldCfg:
     cfg = WorldCfg().with_behavior("learned").with_speed(1.6)
-    return validate_world(cfg.replace(target=cfg.target.replace(evader_checkpoint=path)))
+    target = cfg.target.replace(evader_checkpoint=path, evader_sample=sample)
+    return validate_world(cfg.replace(target=target))
+
+
+def test_sampled_turns_draw_around_the_mean(tmp_path):
+    path = str(save_evader(tmp_path / EVADER_CHECKPOINT, _away_net(action_std=0.25)))
+    cfg = _learned_world(path, sample=True)
+    target, robot = _bodies((8.0, 8.0), 0.0, 1.0, (8.0, 8.25))  # mean action -0.25
+    keys = jax.random.split(jax.random.key(0), 2000)
+    turns = jax.vmap(lambda k: learned_heading(target, robot, cfg, k)[0])(keys) / math.pi
+    assert float(jnp.mean(turns)) == pytest.approx(-0.25, abs=0.02)
+    assert float(jnp.std(turns)) == pytest.approx(0.25, abs=0.02)
+    again = learned_heading(target, robot, cfg, keys[0])[0] / math.pi
+    assert float(again) == pytest.approx(float(turns[0]), abs=1e-6)  # one key, one turn
+    with pytest.raises(ConfigError, match="evader_sample.*no action std"):
+        _learned_world(str(save_evader(tmp_path / "no_std.safetensors", _away_net())), True)
 
 
 def test_episode_through_the_ordinary_step_is_deterministic(away_file):

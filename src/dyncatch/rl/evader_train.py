@@ -90,6 +90,7 @@ def evader_net_of(ts: TrainState, header: dict) -> EvaderNet:
         np.asarray(ts.norm.std),
         TURN_LIMIT_RAD,
         {**header, "iteration": int(ts.iteration), "env_steps": int(ts.env_steps)},
+        float(np.exp(np.asarray(ts.params["params"]["log_std"]))[0]),
     )
 
 

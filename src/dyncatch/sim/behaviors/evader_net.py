@@ -44,24 +44,35 @@ def elu(x: jax.Array) -> jax.Array:
 @dataclass(frozen=True, eq=False)
 class EvaderNet:
     """A frozen evader actor: dense layers ``(kernel (in, out), bias (out,))``, ELU between
-    them, the observation normaliser, and the turn range the mean action maps to."""
+    them, the observation normaliser, the turn range actions map to and the training
+    policy's action std (None in a file that does not record it)."""
 
     layers: tuple[tuple[np.ndarray, np.ndarray], ...]
     norm_mean: np.ndarray
     norm_std: np.ndarray
     turn_limit_rad: float
     header: dict
+    action_std: float | None = None
+    """The trained Gaussian policy's std, in action units ([-1, 1] spans the turn range)."""
 
-    def mean_turn(self, features: jax.Array) -> jax.Array:
-        """The deterministic turn, (), rad, in [-turn_limit, turn_limit], from the features
-        (D,): normalise and clip as in training, run the actor, map its mean action in
-        [-1, 1] (clipped) to the turn, as ``rl.train.to_command`` maps it in training."""
+    def action_mean(self, features: jax.Array) -> jax.Array:
+        """The actor's mean action, (), from the features (D,), normalised and clipped as
+        in training."""
         x = jnp.clip((features - self.norm_mean) / self.norm_std, -NORM_CLIP, NORM_CLIP)
         for i, (kernel, bias) in enumerate(self.layers):
             x = x @ kernel + bias
             if i + 1 < len(self.layers):
                 x = elu(x)
-        return jnp.clip(x[0], -1.0, 1.0) * self.turn_limit_rad
+        return x[0]
+
+    def turn(self, action: jax.Array) -> jax.Array:
+        """An action, clipped to [-1, 1], as a turn in rad, as ``rl.train.to_command`` maps
+        it in training."""
+        return jnp.clip(action, -1.0, 1.0) * self.turn_limit_rad
+
+    def mean_turn(self, features: jax.Array) -> jax.Array:
+        """The deterministic turn, (), rad, in [-turn_limit, turn_limit]."""
+        return self.turn(self.action_mean(features))
 
 
 def actor_tree(layers, norm_mean, norm_std) -> dict:
@@ -83,6 +94,7 @@ def save_evader(path: str | os.PathLike, net: EvaderNet) -> Path:
         "layer_sizes": sizes,
         "activation": "elu",
         "turn_limit_rad": float(net.turn_limit_rad),
+        "action_std": None if net.action_std is None else float(net.action_std),
     }
     tree = actor_tree(
         [(np.asarray(k, np.float32), np.asarray(b, np.float32)) for k, b in net.layers],
@@ -159,4 +171,5 @@ def _load_cached(path: str, mtime_ns: int, size: int, feature_names: tuple[str, 
         np.asarray(tree["norm"]["std"]),
         turn_limit,
         header,
+        None if header.get("action_std") is None else float(header["action_std"]),
     )

@@ -6,11 +6,11 @@ function the evader's trainer (``dyncatch.rl.evader``) observes. Each step the e
 turn; the desired heading is the current heading plus it, and the body then turns toward it
 under the turn-rate limit and runs at the episode's speed cap, exactly as the scripted
 targets do (``sim.target.steer``). Speed is not the evader's to choose: it always runs at its
-cap (a reading; a slower target is never harder to catch in this world, so nothing is lost
-for the question asked, how often a target at a given cap escapes).
+cap (a reading; the issue allows any speed up to the cap, which is not built).
 
-``learned`` evaluates the frozen actor in ``target.evader_checkpoint`` deterministically (its
-mean turn); ``commanded`` applies the turn the evader trainer writes into its state.
+``learned`` evaluates the frozen actor in ``target.evader_checkpoint`` deterministically
+(its mean turn; ``target.evader_sample`` draws around it as in training); ``commanded``
+applies the turn the evader trainer writes into its state.
 """
 
 from __future__ import annotations
@@ -56,6 +56,9 @@ class LearnedCfg:
     evader_checkpoint: str = static("")
     """learned: the trained evader, a file or run folder written by ``dyncatch evader train``
     (static: a compile-time constant, loaded once per file)."""
+    evader_sample: bool = static(False)
+    """learned: draw each turn from the trained Gaussian policy (mean + std x N(0, 1), with
+    the behaviour's key) as in training, instead of its mean (False, the default)."""
 
 
 @struct.dataclass
@@ -114,9 +117,13 @@ def evader_net(cfg: WorldCfg) -> EvaderNet:
 def learned_heading(
     target: TargetState, robot: RobotState, cfg: WorldCfg, key: jax.Array
 ) -> tuple[jax.Array, EvaderState]:
-    """Current heading plus the frozen actor's mean turn (deterministic; ``key`` unused)."""
-    del key
-    turn = evader_net(cfg).mean_turn(evader_features(target, robot, cfg))
+    """Current heading plus the frozen actor's mean turn (deterministic; ``key`` unused), or
+    a turn drawn around it with ``key`` where ``target.evader_sample``."""
+    net = evader_net(cfg)
+    action = net.action_mean(evader_features(target, robot, cfg))
+    if cfg.target.evader_sample:
+        action = action + net.action_std * jax.random.normal(key, ())
+    turn = net.turn(action)
     return target.heading_rad + turn, target.behavior_state.replace(turn_rad=turn)
 
 
@@ -133,7 +140,9 @@ def learned_validate(cfg: WorldCfg) -> list[Check]:
         evader_net(cfg)
     except EvaderCheckpointError as err:
         return [(False, "target.evader_checkpoint", str(err))]
-    return []
+    no_std = cfg.target.evader_sample and evader_net(cfg).action_std is None
+    why = "its file records no action std (written before it was recorded); retrain it"
+    return [(not no_std, "target.evader_sample", why)]
 
 
 LEARNED = Behavior(
