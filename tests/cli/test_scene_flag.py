@@ -16,6 +16,7 @@ PREFIXES = {
     "render": ["render"],
     "train": ["train"],
     "eval": ["eval", "pursuit"],
+    "evader train": ["evader", "train"],
     "reproduce": ["reproduce"],
     "bench env": ["bench", "env"],
     "bench ppo": ["bench", "ppo"],

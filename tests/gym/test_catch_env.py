@@ -19,7 +19,7 @@ from dyncatch.gym import CATCH_ID
 from dyncatch.gym.catch_env import CatchEnv, seed_to_key
 from dyncatch.sim import env as sim_env
 from dyncatch.sim.api import obs_dim
-from dyncatch.sim.behaviors import BEHAVIORS
+from dyncatch.sim.behaviors import scripted_behaviors
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.state import Obs
 from dyncatch.sim.validate import ConfigError
@@ -63,7 +63,8 @@ def rollout(env: CatchEnv, seed: int, actions: np.ndarray):
 @pytest.fixture(scope="module")
 def made_envs() -> dict[str, CatchEnv]:
     """One CatchEnv per behaviour, built through gymnasium.make (compiles once each)."""
-    return {name: gymnasium.make(CATCH_ID, behavior=name).unwrapped for name in BEHAVIORS}
+    names = scripted_behaviors()
+    return {name: gymnasium.make(CATCH_ID, behavior=name).unwrapped for name in names}
 
 
 @pytest.fixture(scope="module")
@@ -72,7 +73,7 @@ def env(made_envs) -> CatchEnv:
 
 
 class TestGymnasiumApi:
-    @pytest.mark.parametrize("behavior", sorted(BEHAVIORS))
+    @pytest.mark.parametrize("behavior", sorted(scripted_behaviors()))
     def test_check_env_passes(self, made_envs, behavior):
         env = made_envs[behavior]
         assert env.world.target.behavior == behavior
@@ -278,7 +279,7 @@ def random_command_obs(env: CatchEnv, seed: int, amplitude: float, hold: int, st
 
 
 class TestObservationBounds:
-    @pytest.mark.parametrize("behavior", sorted(BEHAVIORS))
+    @pytest.mark.parametrize("behavior", sorted(scripted_behaviors()))
     @settings(max_examples=4, deadline=None)
     @given(
         seed=st.integers(0, 2**31 - 1),

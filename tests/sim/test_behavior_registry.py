@@ -74,7 +74,11 @@ class TestComposedTargetCfg:
             "random_turn_max_rad",
             "random_turn_mean_interval_s",
             "random_turn_hold_s",
+            "evader_checkpoint",
+            "evader_sample",
         ]
+        assert BEHAVIORS["learned"].param_names == ("evader_checkpoint", "evader_sample")
+        assert BEHAVIORS["commanded"].param_names == ()
         assert BEHAVIORS["circle"].param_names == ("circle_radius_m",)
         assert BEHAVIORS["bounce"].param_names == ()
         assert BEHAVIORS["random_reactive"].param_names[:5] == tuple(_names(ReactiveCfg))

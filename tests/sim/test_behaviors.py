@@ -31,7 +31,14 @@ def _start(cfg, seed=0, robot_xy=None, robot_yaw=None, target_xy=None, heading=N
 
 
 def test_registry_names_every_behavior():
-    assert sorted(BEHAVIORS) == ["bounce", "circle", "random_reactive", "reactive"]
+    assert sorted(BEHAVIORS) == [
+        "bounce",
+        "circle",
+        "commanded",
+        "learned",
+        "random_reactive",
+        "reactive",
+    ]
     try:
         get_behavior("zigzag")
     except ValueError as err:

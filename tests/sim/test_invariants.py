@@ -6,7 +6,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from dyncatch.sim.behaviors import BEHAVIORS
+from dyncatch.sim.behaviors import scripted_behaviors
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.env import catch_error_m
 
@@ -18,7 +18,7 @@ CFG = WorldCfg().with_scene("arena")
 @settings(max_examples=8, deadline=None)
 @given(
     seed=st.integers(0, 2**31 - 1),
-    behavior=st.sampled_from(sorted(BEHAVIORS)),
+    behavior=st.sampled_from(sorted(scripted_behaviors())),
     speed=st.floats(0.0, 1.8),
 )
 def test_random_rollouts_keep_every_invariant(seed, behavior, speed):

@@ -23,6 +23,7 @@ from dyncatch.cli.bench import (
     run_ppo_bench,
 )
 from dyncatch.cli.demo import DemoCmd, run_demo
+from dyncatch.cli.evader import run_evader_train
 from dyncatch.cli.eval import EvalCmd, run_eval, run_world_default
 from dyncatch.cli.export import ExportCmd, run_export
 from dyncatch.cli.plot import PlotCmd, run_plot
@@ -32,6 +33,7 @@ from dyncatch.cli.reproduce import run_reproduce
 from dyncatch.cli.train import run_train
 from dyncatch.predictor.pipeline import PredictorTrainCfg
 from dyncatch.reproduce.plan import Plan, profile_default
+from dyncatch.rl.evader_train import EvaderTrainCfg
 from dyncatch.rl.runner import TrainRunCfg
 
 
@@ -64,6 +66,10 @@ COMMANDS: dict[str, Command | Group] = {
             "ppo": Command(PPOBenchCmd, run_ppo_bench),
             "gait": Command(GaitBenchCmd, run_gait_bench),
         },
+    ),
+    "evader": Group(
+        "Targets that learn to escape (issue 34): a PPO evader against a frozen pursuer.",
+        {"train": Command(EvaderTrainCfg, run_evader_train)},
     ),
     "predictor": Group(
         "The target-behaviour predictor (Section III-B, Table II).",

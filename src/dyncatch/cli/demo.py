@@ -9,7 +9,7 @@ from pathlib import Path
 from dyncatch.evaluation.episodes import run_episodes
 from dyncatch.evaluation.stats import summarize
 from dyncatch.policies.pursuit import pursuit_policy
-from dyncatch.sim.behaviors import BEHAVIORS
+from dyncatch.sim.behaviors import scripted_behaviors
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.validate import validate_speeds, validate_world
 from dyncatch.utils.files import check_out_dir
@@ -40,7 +40,7 @@ def run_demo(cmd: DemoCmd) -> list[dict]:
     from rich.console import Console
     from rich.table import Table
 
-    for behavior in BEHAVIORS:
+    for behavior in scripted_behaviors():
         validate_world(cmd.world.with_behavior(behavior))
     validate_speeds(cmd.speeds_mps, "--speeds-mps")
     if cmd.episodes < 1:
@@ -49,7 +49,7 @@ def run_demo(cmd: DemoCmd) -> list[dict]:
     console = Console()
     rows = []
     policy = pursuit_policy(cmd.world)
-    for behavior in BEHAVIORS:
+    for behavior in scripted_behaviors():
         for speed in cmd.speeds_mps:
             cfg = cmd.world.with_behavior(behavior).with_speed(speed)
             outcome = run_episodes(policy, jax.random.key(cmd.seed), cfg, cmd.episodes)

@@ -27,15 +27,15 @@ from dyncatch.predictor.tracker.config import TrackerCfg, TrackerDataCfg, Tracke
 from dyncatch.predictor.tracker.pipeline import write_error_vs_time
 from dyncatch.predictor.tracker.table import tracker_rows
 from dyncatch.predictor.train import encode_samples, evaluate, fit
-from dyncatch.sim.behaviors import BEHAVIORS
+from dyncatch.sim.behaviors import scripted_behaviors
 from dyncatch.sim.config import WorldCfg
 
 
 def all_behaviors() -> tuple[str, ...]:
-    """Every registered target behaviour, read when called (a behaviour registered at run
-    time is included)."""
+    """Every registered scripted target behaviour, read when called (a behaviour registered
+    at run time is included; ``learned``, which needs a checkpoint, is named explicitly)."""
 
-    return tuple(BEHAVIORS)
+    return scripted_behaviors()
 
 
 def all_kinds() -> tuple[str, ...]:

@@ -15,6 +15,7 @@ from dyncatch.sim.behaviors.base import BEHAVIORS, Behavior, BehaviorName, NoSta
 from dyncatch.sim.behaviors.bounce import BOUNCE
 from dyncatch.sim.behaviors.circle import CIRCLE, CircleCfg, CircleState
 from dyncatch.sim.behaviors.compose import compose_target_cfg, missing_fields
+from dyncatch.sim.behaviors.learned import COMMANDED, LEARNED, EvaderState, LearnedCfg
 from dyncatch.sim.behaviors.random_reactive import (
     RANDOM_REACTIVE,
     RandomReactiveCfg,
@@ -28,6 +29,8 @@ BEHAVIORS.update(
         "bounce": BOUNCE,
         "reactive": REACTIVE,
         "random_reactive": RANDOM_REACTIVE,
+        "learned": LEARNED,
+        "commanded": COMMANDED,
     }
 )
 
@@ -44,6 +47,12 @@ def get_behavior(name: str) -> Behavior:
     except KeyError:
         known = ", ".join(sorted(BEHAVIORS))
         raise ValueError(f"unknown target behavior {name!r}: choose one of {known}") from None
+
+
+def scripted_behaviors() -> tuple[str, ...]:
+    """The registered behaviours that run from their config alone (``Behavior.scripted``),
+    in registration order, read when called: what "every behaviour" means for a listing."""
+    return tuple(name for name, b in BEHAVIORS.items() if b.scripted)
 
 
 def register_behavior(name: str, behavior: Behavior, replace: bool = False) -> None:
@@ -92,7 +101,9 @@ __all__ = [
     "BehaviorName",
     "CircleCfg",
     "CircleState",
+    "EvaderState",
     "GammaState",
+    "LearnedCfg",
     "NoState",
     "RandomReactiveCfg",
     "RandomReactiveState",
@@ -102,5 +113,6 @@ __all__ = [
     "get_behavior",
     "register_behavior",
     "registered_behavior",
+    "scripted_behaviors",
     "unregister_behavior",
 ]

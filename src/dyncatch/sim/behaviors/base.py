@@ -100,6 +100,10 @@ class Behavior:
     """Checks of the behaviour's own parameters."""
     reflects_off_walls: bool = False
     """True: hitting a wall mirrors the heading (a bounce); False: the body slides along it."""
+    scripted: bool = True
+    """False: the behaviour needs more than its config to run (a trained network's file,
+    ``learned``; an outer controller, ``commanded``), so listings of "every behaviour" (the
+    demo, the predictor table's default, the Gymnasium tests) take ``scripted_behaviors``."""
     doc: str = ""
     """One line for tables and ``--help``."""
 

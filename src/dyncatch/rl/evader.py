@@ -1,0 +1,198 @@
+"""The evader's training environment: the catch world seen from the target's side.
+
+``EvaderEnv`` implements the environment protocol (``dyncatch.sim.api``), so the PPO of
+``rl.train.make_train`` trains the target unchanged. Its world runs the ``commanded``
+behaviour: each ``step`` writes the evader's turn (a heading change in [-pi, pi]) into the
+target's behaviour state, asks the frozen pursuer (any policy of ``policies.api``, run
+through ``as_recurrent``) for the base command, and steps the world once. The evader
+observes ``sim.behaviors.learned.evader_features``, the function the deployed ``learned``
+behaviour computes, so a trained actor runs as a behaviour with no other change.
+
+One difference remains between training and deployment: the world adds the gait's velocity
+noise to the robot before the target turns (``sim.env.step``), so a deployed evader sees
+the robot's velocity with that noise (``base.gait_noise_mps``, 0.05 m/s by default) and the
+trainer observes it from the step before, without it.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+from flax import struct
+
+from dyncatch.policies.api import as_recurrent
+from dyncatch.sim import env as sim_env
+from dyncatch.sim.api import Spec
+from dyncatch.sim.behaviors.learned import EVADER_OBS_DIM, TURN_LIMIT_RAD, evader_features
+from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.state import EnvState, Obs
+
+PURSUER_STREAM = 0x9E5
+"""The pursuer's key at a step (and the draw of the episode's pursuer at reset) is the world
+key folded with this (the world's own draws are unchanged; the scripted pursuers ignore
+their key)."""
+
+
+@struct.dataclass
+class EvaderRewardCfg:
+    """The evader's reward, a sum of named terms logged as ``reward/<name>``."""
+
+    alive_per_episode: float = 1.0
+    """Paid as this / max_steps at every step the target is not caught, so a whole episode
+    uncaught earns this (1: the same size as the catch penalty)."""
+    caught: float = -1.0
+    """Paid once, at the step of the catch (which ends the episode)."""
+    distance_per_m: float = 0.1
+    """Times the step's change of the robot-target distance, m (a shaping term: over an
+    episode it sums to 0.1 x the net distance gained, so 10 m gained is worth one survival;
+    it speeds up learning which way to run and cannot outweigh being caught)."""
+
+
+@struct.dataclass
+class EvaderObs:
+    """The evader's observation; ``flat`` is the network view (``rl.train.flat_obs``)."""
+
+    features: jax.Array
+    """``evader_features``, (EVADER_OBS_DIM,)."""
+
+    @property
+    def flat(self) -> jax.Array:
+        return self.features
+
+
+@struct.dataclass
+class EvaderEnvState:
+    """The world's state, the pursuers' observation of it, which pursuer plays this episode
+    and every pursuer's carry (only the playing one's moves)."""
+
+    world: EnvState
+    world_obs: Obs
+    pursuer_index: jax.Array
+    """The pursuer of this episode, () int32, an index into ``EvaderEnv.pursuers``."""
+    pursuer_carries: tuple
+
+    @property
+    def key(self) -> jax.Array:
+        return self.world.key
+
+    @property
+    def step(self) -> jax.Array:
+        return self.world.step
+
+
+@struct.dataclass
+class StaticPolicy:
+    """A policy that is not a pytree (the scripted baselines), held as a static field."""
+
+    policy: Any = struct.field(pytree_node=False)
+
+    def init_carry(self, state: EnvState, obs: Obs) -> Any:
+        return self.policy.init_carry(state, obs)
+
+    def step(self, carry: Any, state: EnvState, obs: Obs, key: jax.Array):
+        return self.policy.step(carry, state, obs, key)
+
+
+def frozen_pursuer(policy) -> Any:
+    """``policy`` as ``EvaderEnv.pursuer``: a pytree policy (a trained run's) as it is, any
+    other seen through ``as_recurrent`` and held static."""
+    if getattr(policy, "is_pytree_policy", False):
+        return policy
+    return StaticPolicy(as_recurrent(policy))
+
+
+@struct.dataclass
+class EvaderEnv:
+    """The catch world with the target as the agent and a frozen pursuer (``evader_env``
+    builds one)."""
+
+    world: WorldCfg
+    """The world, its behaviour ``commanded``."""
+    pursuers: tuple
+    """The frozen pursuers (``frozen_pursuer``), one drawn per episode."""
+    reward: EvaderRewardCfg = EvaderRewardCfg()
+
+    def reset(self, key: jax.Array) -> EvaderEnvState:
+        ws = sim_env.reset(key, self.world)
+        obs = sim_env.observe(ws, self.world)
+        k = jax.random.fold_in(key, PURSUER_STREAM)
+        index = jax.random.randint(k, (), 0, len(self.pursuers))
+        carries = tuple(p.init_carry(ws, obs) for p in self.pursuers)
+        return EvaderEnvState(ws, obs, index, carries)
+
+    def _pursue(self, state: EvaderEnvState, ws: EnvState, key: jax.Array):
+        """(every pursuer's carry, the command (3,)) of the episode's pursuer."""
+
+        def branch(i):
+            def run(carries):
+                carry, command = self.pursuers[i].step(carries[i], ws, state.world_obs, key)
+                return carries[:i] + (carry,) + carries[i + 1 :], command
+
+            return run
+
+        if len(self.pursuers) == 1:
+            return branch(0)(state.pursuer_carries)
+        branches = [branch(i) for i in range(len(self.pursuers))]
+        return jax.lax.switch(state.pursuer_index, branches, state.pursuer_carries)
+
+    def observe(self, state: EvaderEnvState) -> EvaderObs:
+        return EvaderObs(evader_features(state.world.target, state.world.robot, self.world))
+
+    def step(self, state: EvaderEnvState, action: jax.Array):
+        """Turn by ``action[0]`` rad (clipped to [-pi, pi]) while the pursuer acts; returns
+        (state, obs, reward, done, info); info's ``success`` is the evader's (the episode
+        ran out uncaught), ``terminated`` the catch."""
+        turn = jnp.clip(action[0], -TURN_LIMIT_RAD, TURN_LIMIT_RAD)
+        ws = state.world
+        behavior_state = ws.target.behavior_state.replace(turn_rad=turn)
+        ws = ws.replace(target=ws.target.replace(behavior_state=behavior_state))
+        key = jax.random.fold_in(ws.key, PURSUER_STREAM)
+        carries, command = self._pursue(state, ws, key)
+        next_ws, next_obs, _, _, world_info = sim_env.step(ws, command, self.world)
+        caught = world_info["success"]
+        max_steps = self.world.episode.max_steps
+        truncated = (next_ws.step >= max_steps) & ~caught
+        r = self.reward
+        terms = {
+            "alive": jnp.where(caught, 0.0, r.alive_per_episode / max_steps),
+            "caught": jnp.where(caught, r.caught, 0.0),
+            "distance": r.distance_per_m * (next_ws.distance_m - ws.distance_m),
+        }
+        info = {f"reward/{name}": value for name, value in terms.items()}
+        info.update(
+            success=truncated,
+            terminated=caught,
+            truncated=truncated,
+            caught=caught,
+            distance_m=next_ws.distance_m,
+        )
+        next_state = EvaderEnvState(next_ws, next_obs, state.pursuer_index, carries)
+        reward = sum(terms.values())
+        return next_state, self.observe(next_state), reward, caught | truncated, info
+
+    def with_world(self, world: WorldCfg) -> EvaderEnv:
+        return self.replace(world=world.with_behavior("commanded"))
+
+    @property
+    def observation_spec(self) -> Spec:
+        """``evader_features``, (EVADER_OBS_DIM,), unbounded."""
+        inf = jnp.full((EVADER_OBS_DIM,), jnp.inf)
+        return Spec((EVADER_OBS_DIM,), -inf, inf)
+
+    @property
+    def action_spec(self) -> Spec:
+        """The turn, rad, (1,)."""
+        return Spec((1,), jnp.full((1,), -TURN_LIMIT_RAD), jnp.full((1,), TURN_LIMIT_RAD))
+
+
+def evader_env(world: WorldCfg, pursuers, reward: EvaderRewardCfg | None = None) -> EvaderEnv:
+    """An ``EvaderEnv`` in ``world`` (its behaviour set to ``commanded``) against a pursuer
+    or a list or tuple of them, one drawn per episode (policies built for that world:
+    ``policies.registry.BASELINES[name](world)``)."""
+    pursuers = tuple(pursuers) if isinstance(pursuers, list | tuple) else (pursuers,)
+    if not pursuers:
+        raise ValueError("give the evader at least one pursuer")
+    frozen = tuple(frozen_pursuer(p) for p in pursuers)
+    return EvaderEnv(world.with_behavior("commanded"), frozen, reward or EvaderRewardCfg())

@@ -1,0 +1,140 @@
+"""Train an evader against a frozen pursuer: ``train_evader(cfg)`` writes the checkpoint the
+``learned`` behaviour loads (``OUT/evader.safetensors``) and ``OUT/metrics.csv``.
+
+The PPO is ``rl.train.make_train`` over ``rl.evader.EvaderEnv``, unchanged; only the actor
+and the observation normaliser are exported (``sim.behaviors.evader_net``), with a header
+that records the features, the architecture, the pursuer, the world, PPO and the reward.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from pathlib import Path
+
+import jax
+import numpy as np
+
+from dyncatch.policies.registry import BASELINES
+from dyncatch.rl.config import PPOCfg, validate_ppo
+from dyncatch.rl.evader import EvaderRewardCfg, evader_env
+from dyncatch.rl.guard import check_finite
+from dyncatch.rl.logging import MetricLog
+from dyncatch.rl.train import TrainState, make_train
+from dyncatch.sim.behaviors.evader_net import EVADER_CHECKPOINT, EvaderNet, save_evader
+from dyncatch.sim.behaviors.learned import FEATURE_NAMES, TURN_LIMIT_RAD
+from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.validate import validate_world
+from dyncatch.utils.files import check_out_dir
+from dyncatch.utils.progress import NoProgress, Progress
+
+EVADER_PPO = PPOCfg(num_envs=256, num_steps=32, hidden_sizes=(64, 64))
+"""The evader's PPO: the pursuer's defaults but a small network (11 inputs, one output: two
+layers of 64 are ample, and cheap inside every world step that deploys it) and 256
+environments, so an iteration takes a couple of seconds on two CPU cores."""
+EVADER_WORLD = WorldCfg().replace(
+    target=WorldCfg().target.replace(speed_min_mps=1.4, speed_max_mps=1.8)
+)
+"""The evader's training world: the default one with the per-episode speed cap drawn in
+[1.4, 1.8] m/s, the speeds issue 34 measures it at (its speed is among its inputs)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class EvaderTrainCfg:
+    """Train a target (the evader) with PPO against a frozen pursuer."""
+
+    against: tuple[str, ...] = ("pursuit",)
+    """The frozen pursuers, scripted baselines of dyncatch.policies.registry.BASELINES
+    (pursuit, intercept); with several, each episode draws one uniformly."""
+    total_steps: int = 2_000_000
+    """Environment steps to train for (rounded up to whole iterations)."""
+    seed: int = 0
+    """Training seed."""
+    out: Path = Path("runs/evader")
+    """Run folder: evader.safetensors (load it with --behavior learned
+    --world.target.evader-checkpoint OUT) and metrics.csv."""
+    checkpoint_every: int = 20
+    """Iterations between checkpoints (one is always written at the end)."""
+    reward: EvaderRewardCfg = EvaderRewardCfg()
+    """The evader's reward terms (dyncatch.rl.evader.EvaderRewardCfg)."""
+    ppo: PPOCfg = EVADER_PPO
+    """PPO hyper-parameters and batch geometry (EVADER_PPO)."""
+    world: WorldCfg = EVADER_WORLD
+    """The simulated world (its target behaviour is replaced by the trainer's commanded)."""
+
+
+def evader_header(cfg: EvaderTrainCfg) -> dict:
+    """What an evader checkpoint records beyond its architecture."""
+    return {
+        "features": list(FEATURE_NAMES),
+        "against": list(cfg.against),
+        "seed": cfg.seed,
+        "total_steps": cfg.total_steps,
+        "reward": dataclasses.asdict(cfg.reward),
+        "ppo": dataclasses.asdict(cfg.ppo),
+        "world": dataclasses.asdict(cfg.world),
+    }
+
+
+def evader_net_of(ts: TrainState, header: dict) -> EvaderNet:
+    """The actor and normaliser of a training state as a deployable ``EvaderNet``."""
+    actor = jax.device_get(ts.params["params"]["actor"])
+    n = len(actor)
+    layers = tuple(
+        (np.asarray(actor[f"Dense_{i}"]["kernel"]), np.asarray(actor[f"Dense_{i}"]["bias"]))
+        for i in range(n)
+    )
+    return EvaderNet(
+        layers,
+        np.asarray(ts.norm.mean),
+        np.asarray(ts.norm.std),
+        TURN_LIMIT_RAD,
+        {**header, "iteration": int(ts.iteration), "env_steps": int(ts.env_steps)},
+        float(np.exp(np.asarray(ts.params["params"]["log_std"]))[0]),
+    )
+
+
+def _validate(cfg: EvaderTrainCfg) -> None:
+    bad = [name for name in cfg.against if name not in BASELINES]
+    if bad or not cfg.against:
+        raise ValueError(f"--against {bad or '()'}: choose from {', '.join(BASELINES)}")
+    if cfg.total_steps < 1 or cfg.checkpoint_every < 1:
+        raise ValueError("--total-steps and --checkpoint-every must be >= 1")
+    validate_ppo(cfg.ppo)
+    validate_world(cfg.world.with_behavior("commanded"))
+    check_out_dir(cfg.out)
+
+
+def train_evader(cfg: EvaderTrainCfg, progress: Progress | None = None) -> dict[str, float]:
+    """Train to ``total_steps`` and write ``out/evader.safetensors``; returns the last
+    iteration's metrics (``success_rate`` is the evader's: episodes it ran out uncaught)."""
+    _validate(cfg)
+    path = cfg.out / EVADER_CHECKPOINT
+    if path.exists():
+        raise ValueError(f"{path} exists: choose another --out (evader runs do not resume)")
+    pursuers = [BASELINES[name](cfg.world) for name in cfg.against]
+    env = evader_env(cfg.world, pursuers, cfg.reward)
+    init, iterate, _ = make_train(env, cfg.ppo)
+    iterate = jax.jit(iterate)
+    ts = jax.jit(init)(jax.random.key(cfg.seed))
+    header = evader_header(cfg)
+    total_iters = -(-cfg.total_steps // cfg.ppo.batch_size)
+    update = (progress or NoProgress()).task(f"evader vs {'+'.join(cfg.against)}", total_iters)
+    update(0, "compiling")
+    cfg.out.mkdir(parents=True, exist_ok=True)
+    log = MetricLog(cfg.out, 0, ("csv",), header)
+    metrics: dict[str, float] = {}
+    clock0 = time.perf_counter()
+    try:
+        for it in range(total_iters):
+            ts, m = iterate(ts)
+            metrics = {k: float(v) for k, v in jax.device_get(m).items()}
+            check_finite(ts.params, ts.norm, metrics, it + 1, path, None)
+            metrics["time_s"] = time.perf_counter() - clock0
+            log.write(it + 1, int(ts.env_steps), metrics)
+            update(it + 1, f"escaped {metrics['success_rate']:.2f}")
+            if (it + 1) % cfg.checkpoint_every == 0 or it + 1 == total_iters:
+                save_evader(path, evader_net_of(ts, header))
+    finally:
+        log.close()
+    return metrics

@@ -1,0 +1,162 @@
+"""A target that runs a trained evader (``learned``), and the one an outer trainer steers
+(``commanded``).
+
+Both see what a fleeing animal could: ``evader_features`` of (target, robot), the same pure
+function the evader's trainer (``dyncatch.rl.evader``) observes. Each step the evader picks a
+turn; the desired heading is the current heading plus it, and the body then turns toward it
+under the turn-rate limit and runs at the episode's speed cap, exactly as the scripted
+targets do (``sim.target.steer``). Speed is not the evader's to choose: it always runs at its
+cap (a reading; the issue allows any speed up to the cap, which is not built).
+
+``learned`` evaluates the frozen actor in ``target.evader_checkpoint`` deterministically
+(its mean turn; ``target.evader_sample`` draws around it as in training); ``commanded``
+applies the turn the evader trainer writes into its state.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import jax
+import jax.numpy as jnp
+from flax import struct
+
+from dyncatch.sim.behaviors.base import Behavior, Check, uniform_init
+from dyncatch.sim.behaviors.evader_net import EvaderCheckpointError, EvaderNet, load_evader
+from dyncatch.sim.fields import static
+from dyncatch.sim.geometry import rotate, world_to_body
+from dyncatch.sim.state import RobotState, TargetState
+
+if TYPE_CHECKING:
+    from dyncatch.sim.config import WorldCfg
+
+FEATURE_NAMES = (
+    "robot_rel_fwd_m",
+    "robot_rel_left_m",
+    "robot_rel_vel_fwd_mps",
+    "robot_rel_vel_left_mps",
+    "speed_mps",
+    "wall_west_m",
+    "wall_east_m",
+    "wall_south_m",
+    "wall_north_m",
+    "heading_cos",
+    "heading_sin",
+)
+"""The evader's observation, in order (``evader_features``)."""
+EVADER_OBS_DIM = len(FEATURE_NAMES)
+TURN_LIMIT_RAD = math.pi
+"""The evader's action is a heading change in [-pi, pi] per control step (the body's
+turn-rate limit then clips what it can do in one step, 0.2 rad at 10 rad/s and 50 Hz)."""
+
+
+@struct.dataclass
+class LearnedCfg:
+    evader_checkpoint: str = static("")
+    """learned: the trained evader, a file or run folder written by ``dyncatch evader train``
+    (static: a compile-time constant, loaded once per file)."""
+    evader_sample: bool = static(False)
+    """learned: draw each turn from the trained Gaussian policy (mean + std x N(0, 1), with
+    the behaviour's key) as in training, instead of its mean (False, the default)."""
+
+
+@struct.dataclass
+class EvaderState:
+    """The state of ``learned`` and ``commanded`` targets."""
+
+    turn_rad: jax.Array
+    """commanded: the turn the trainer set for this step, (); learned: the last turn."""
+    corner_xy_m: jax.Array
+    """The arena square's lower corner (the scene frame's origin) in the local frame, (2,);
+    it moves with the frame (``sim.frame.recentre``), so the walls are known at each step."""
+
+
+def evader_init(key: jax.Array, cfg: WorldCfg) -> tuple[jax.Array, jax.Array, EvaderState]:
+    """Placed as the scripted targets are; reset runs in the scene frame, so the corner is 0."""
+    xy, heading, _ = uniform_init(key, cfg)
+    return xy, heading, EvaderState(jnp.zeros(()), jnp.zeros(2))
+
+
+def evader_features(target: TargetState, robot: RobotState, cfg: WorldCfg) -> jax.Array:
+    """What the evader sees, (EVADER_OBS_DIM,), named in ``FEATURE_NAMES``:
+
+    - the robot's position relative to the target, m, in the target's heading frame
+      (forward, left);
+    - the robot's velocity relative to the target's, m/s, in the same frame;
+    - the target's own speed, m/s;
+    - the distances from the target's centre to the four sides of the arena square (x low,
+      x high, y low, y high), m: the walls, so it does not run into a corner blindly;
+    - cos and sin of its heading in the square's frame (which way the walls lie ahead).
+
+    Obstacles are not observed (in the rooms and the woods the world's free-direction rule
+    still turns every non-reflecting target away from them)."""
+    state: EvaderState = target.behavior_state
+    rel = world_to_body(robot.xy_m - target.xy_m, target.heading_rad)
+    robot_vel = rotate(robot.vel_body_mps, robot.yaw_rad)
+    rel_vel = world_to_body(robot_vel - target.vel_mps, target.heading_rad)
+    p = target.xy_m - state.corner_xy_m
+    size = cfg.arena.size_m
+    walls = jnp.stack([p[0], size - p[0], p[1], size - p[1]])
+    return jnp.concatenate(
+        [
+            rel,
+            rel_vel,
+            target.speed_mps[None],
+            walls,
+            jnp.stack([jnp.cos(target.heading_rad), jnp.sin(target.heading_rad)]),
+        ]
+    )
+
+
+def evader_net(cfg: WorldCfg) -> EvaderNet:
+    """The network of ``cfg.target.evader_checkpoint`` (cached per file)."""
+    return load_evader(cfg.target.evader_checkpoint, FEATURE_NAMES)
+
+
+def learned_heading(
+    target: TargetState, robot: RobotState, cfg: WorldCfg, key: jax.Array
+) -> tuple[jax.Array, EvaderState]:
+    """Current heading plus the frozen actor's mean turn (deterministic; ``key`` unused), or
+    a turn drawn around it with ``key`` where ``target.evader_sample``."""
+    net = evader_net(cfg)
+    action = net.action_mean(evader_features(target, robot, cfg))
+    if cfg.target.evader_sample:
+        action = action + net.action_std * jax.random.normal(key, ())
+    turn = net.turn(action)
+    return target.heading_rad + turn, target.behavior_state.replace(turn_rad=turn)
+
+
+def commanded_heading(
+    target: TargetState, robot: RobotState, cfg: WorldCfg, key: jax.Array
+) -> tuple[jax.Array, EvaderState]:
+    """Current heading plus the turn in the state (written by ``rl.evader.EvaderEnv``)."""
+    del robot, cfg, key
+    return target.heading_rad + target.behavior_state.turn_rad, target.behavior_state
+
+
+def learned_validate(cfg: WorldCfg) -> list[Check]:
+    try:
+        evader_net(cfg)
+    except EvaderCheckpointError as err:
+        return [(False, "target.evader_checkpoint", str(err))]
+    no_std = cfg.target.evader_sample and evader_net(cfg).action_std is None
+    why = "its file records no action std (written before it was recorded); retrain it"
+    return [(not no_std, "target.evader_sample", why)]
+
+
+LEARNED = Behavior(
+    desired_heading=learned_heading,
+    cfg_cls=LearnedCfg,
+    init_state=evader_init,
+    validate=learned_validate,
+    scripted=False,
+    doc="a trained PPO evader (target.evader_checkpoint), run at its speed cap",
+)
+
+COMMANDED = Behavior(
+    desired_heading=commanded_heading,
+    init_state=evader_init,
+    scripted=False,
+    doc="turns as an outer controller sets it (the evader trainer); alone, runs straight",
+)

@@ -1,0 +1,194 @@
+"""The evader's environment and trainer: the protocol, the reward by hand, PPO over it, and a
+trained checkpoint that runs as the ``learned`` behaviour with the trainer's own numbers."""
+
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from dyncatch.cli.main import main
+from dyncatch.policies.intercept import intercept_policy
+from dyncatch.policies.pursuit import pursuit_policy
+from dyncatch.rl.config import PPOCfg
+from dyncatch.rl.evader import EvaderRewardCfg, evader_env
+from dyncatch.rl.evader_train import EvaderTrainCfg, evader_net_of, train_evader
+from dyncatch.rl.train import make_train, to_command
+from dyncatch.sim import env as sim_env
+from dyncatch.sim.api import Environment
+from dyncatch.sim.behaviors.evader_net import EVADER_CHECKPOINT
+from dyncatch.sim.behaviors.learned import EVADER_OBS_DIM, evader_net
+from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.validate import validate_world
+
+TINY = PPOCfg(num_envs=16, num_steps=8, num_minibatches=2, update_epochs=1, hidden_sizes=(16,))
+WORLD = WorldCfg().with_speed(1.6)
+
+
+@pytest.fixture(scope="module")
+def env():
+    return evader_env(WORLD, pursuit_policy(WORLD))
+
+
+class TestEnvironment:
+    def test_is_an_environment(self, env):
+        assert isinstance(env, Environment)
+        assert env.world.target.behavior == "commanded"
+        assert env.action_spec.shape == (1,) and env.observation_spec.shape == (EVADER_OBS_DIM,)
+        assert env.with_world(WorldCfg()).world.target.behavior == "commanded"
+
+    def test_step_reward_by_hand(self, env):
+        s = env.reset(jax.random.key(0))
+        s1, obs, reward, done, info = jax.jit(env.step)(s, jnp.array([0.3]))
+        assert obs.flat.shape == (EVADER_OBS_DIM,)
+        assert not bool(info["caught"]) and not bool(done)
+        # Uncaught: 1 / max_steps for being alive plus 0.1 x the distance gained.
+        gained = float(s1.world.distance_m - s.world.distance_m)
+        want = 1.0 / WORLD.episode.max_steps + 0.1 * gained
+        assert float(reward) == pytest.approx(want, rel=1e-5)
+        for key in ("success", "terminated", "truncated", "reward/alive", "reward/caught"):
+            assert key in info
+        # The target turned by the action (under the turn-rate limit) and runs at the cap.
+        assert float(s1.world.target.behavior_state.turn_rad) == pytest.approx(0.3)
+        assert float(s1.world.target.speed_mps) == pytest.approx(1.6)
+
+    def test_a_catch_pays_the_penalty_and_ends_the_episode(self):
+        # A target standing still next to the robot is caught.
+        world = WorldCfg().with_speed(0.0)
+        reward = EvaderRewardCfg(distance_per_m=0.0)
+        env = evader_env(world, pursuit_policy(world), reward)
+        step = jax.jit(env.step)
+        s = env.reset(jax.random.key(5))
+        for _ in range(world.episode.max_steps):
+            s, _, r, done, info = step(s, jnp.zeros(1))
+            if bool(done):
+                break
+        assert bool(info["caught"]) and bool(info["terminated"]) and not bool(info["success"])
+        assert float(r) == pytest.approx(-1.0)
+
+
+def test_a_mixture_plays_the_drawn_pursuer():
+    pursuers = [pursuit_policy(WORLD), intercept_policy(WORLD)]
+    mixed = evader_env(WORLD, pursuers)
+    alone = evader_env(WORLD, pursuers[1])
+    states = jax.vmap(mixed.reset)(jax.random.split(jax.random.key(0), 64))
+    drawn = np.asarray(states.pursuer_index)
+    assert set(drawn) == {0, 1}
+    i = int(np.argmax(drawn == 1))
+    s = jax.tree.map(lambda x: x[i], states)
+    carries = s.pursuer_carries[1:]
+    single = s.replace(pursuer_index=jnp.zeros((), jnp.int32), pursuer_carries=carries)
+    a = jax.jit(mixed.step)(s, jnp.array([0.1]))[0]
+    b = jax.jit(alone.step)(single, jnp.array([0.1]))[0]
+    np.testing.assert_allclose(a.world.robot.vel_body_mps, b.world.robot.vel_body_mps, atol=1e-6)
+    np.testing.assert_allclose(a.world.target.xy_m, b.world.target.xy_m, atol=1e-6)
+
+
+def test_ppo_trains_it_unchanged(env):
+    init, iterate, _ = make_train(env, TINY)
+    ts = jax.jit(init)(jax.random.key(0))
+    iterate = jax.jit(iterate)
+    for _ in range(3):
+        ts, m = iterate(ts)
+        assert all(np.isfinite(float(v)) for v in m.values())
+    assert int(ts.env_steps) == 3 * TINY.batch_size
+
+
+def test_exported_actor_is_the_trainers_mean_turn(env):
+    init, iterate, net = make_train(env, TINY)
+    ts, _ = jax.jit(iterate)(jax.jit(init)(jax.random.key(1)))
+    exported = evader_net_of(ts, {})
+    x = jax.random.normal(jax.random.key(2), (32, EVADER_OBS_DIM)) * 3.0
+    mean, _, _ = net.apply(ts.params, ts.norm(x))
+    want = jax.vmap(lambda m: to_command(m, env))(mean)[:, 0]
+    got = jax.vmap(exported.mean_turn)(x)
+    np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-5)
+    log_std = float(ts.params["params"]["log_std"][0])
+    assert exported.action_std == pytest.approx(np.exp(log_std))
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory):
+    out = tmp_path_factory.mktemp("evader")
+    cfg = EvaderTrainCfg(total_steps=2 * TINY.batch_size, out=out, ppo=TINY, world=WORLD)
+    metrics = train_evader(cfg)
+    return cfg, metrics
+
+
+class TestTrainEvader:
+    def test_writes_a_checkpoint_the_behaviour_loads(self, trained):
+        cfg, metrics = trained
+        assert np.isfinite(metrics["reward_per_step"])
+        world = WORLD.with_behavior("learned")
+        world = validate_world(
+            world.replace(target=world.target.replace(evader_checkpoint=str(cfg.out)))
+        )
+        net = evader_net(world)
+        assert net.header["against"] == ["pursuit"] and net.header["env_steps"] == 256
+        assert [k.shape for k, _ in net.layers] == [(EVADER_OBS_DIM, 16), (16, 1)]
+        # An episode through the ordinary step, twice from one key: the same trajectory.
+        run = jax.jit(lambda key: _episode(key, world))
+        a, b = run(jax.random.key(7)), run(jax.random.key(7))
+        for x, y in zip(jax.tree.leaves(a), jax.tree.leaves(b), strict=True):
+            np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+        assert np.all(np.isfinite(np.asarray(a[0])))
+
+    def test_refuses_an_existing_run_and_an_unknown_pursuer(self, trained):
+        cfg, _ = trained
+        with pytest.raises(ValueError, match="exists"):
+            train_evader(cfg)
+        with pytest.raises(ValueError, match=r"--against \['nobody'\]"):
+            train_evader(dataclasses.replace(cfg, against=("pursuit", "nobody")))
+
+    def test_cli_names_the_fix_for_a_missing_checkpoint(self, capsys, tmp_path):
+        rc = main(
+            [
+                "eval",
+                "pursuit",
+                "--speeds",
+                "1.6",
+                "--episodes",
+                "2",
+                "--behavior",
+                "learned",
+                "--world.target.evader-checkpoint",
+                str(tmp_path / "x"),
+            ]
+        )
+        assert rc == 2
+        assert "--world.target.evader-checkpoint" in capsys.readouterr().err
+
+
+def _episode(key, world):
+    """100 steps of the pursuit policy against the learned target: target xy, caught."""
+    policy = pursuit_policy(world)
+    s = sim_env.reset(key, world)
+
+    def body(s, k):
+        action = policy(sim_env.observe(s, world), k)
+        s, _, _, _, info = sim_env.step(s, action, world)
+        return s, (s.target.xy_m + s.origin_xy_m, info["success"])
+
+    return jax.lax.scan(body, s, jax.random.split(key, 100))[1]
+
+
+def test_cli_trains(tmp_path):
+    out = tmp_path / "run"
+    rc = main(
+        [
+            "evader",
+            "train",
+            "--total-steps",
+            "128",
+            "--out",
+            str(out),
+            "--ppo.num-envs",
+            "16",
+            "--ppo.num-steps",
+            "8",
+            "--ppo.hidden-sizes",
+            "8",
+        ]
+    )
+    assert rc == 0 and (out / EVADER_CHECKPOINT).exists() and (out / "metrics.csv").exists()
