@@ -32,13 +32,14 @@ def test_switched_off_stages_leave_the_list():
     ("profile", "seconds"),
     # The constants and counts summed per stage; evaluation counts its compilations, one per
     # (policy, behaviour) of a grid and per (policy, scene, behaviour) of Fig. 9 (blend and
-    # seeds share one). Full (5 methods, 4 trained, 2 baselines, 10 seeds, 300 episodes =
-    # 0.9 s a cell): training 4 x 4 behaviours x 10 seeds x 4 M x 44.47 us + 16 groups x 20 s
-    # = 28 783 s (a sample: (4.8 us + 5.9e-12 s x 5 467 904 FLOPs) x 1.2 = 44.47 us); Table I 52 policies x 6 speeds x 2 rows x 0.9 + 7 x 2 x 20 = 842; Fig. 6
-    # circle and bounce (reactive, random_reactive are Table I's) 2 x (52 x 0.9 + 7 x 20)
-    # = 374; transfer 3 columns x (50 x 0.9 + 5 x 20) = 435; Fig. 9 22 cells x 24 (scene,
-    # behaviour) x 3 s + 72 compilations x 20 = 3 024; predictors 248, Table II 128,
-    # videos 40 + 60. Power (rl, sp_rl; 30 seeds; 2 behaviours): training 120 x 4 M /
+    # seeds share one). A training sample at 256-256-128: (4.8 us + 5.9e-12 s x 5 467 904
+    # FLOPs) x 1.2 = 44.47 us. Full (5 methods, 4 trained, 2 baselines, 10 seeds, 300
+    # episodes = 0.9 s a cell): training 4 x 4 behaviours x 10 seeds x 4 M x 44.47 us + 16
+    # groups x 20 s = 28 783 s; Table I 52 policies x 6 speeds x 2 rows x 0.9 + 7 x 2 x 20
+    # = 842; Fig. 6 circle and bounce (reactive, random_reactive are Table I's) 2 x (52 x
+    # 0.9 + 7 x 20) = 374; transfer 3 columns x (50 x 0.9 + 5 x 20) = 435; Fig. 9 22 cells
+    # x 24 (scene, behaviour) x 3 s + 72 compilations x 20 = 3 024; predictors 248, Table II
+    # 128, videos 40 + 60. Power (rl, sp_rl; 30 seeds; 2 behaviours): training 120 x 4 M x
     # 44.47 us + 4 x 20 = 21 427; Table I 62 x 2 x 2 x 0.9 + 4 x 2 x 20 = 383; predictors 92.
     [("full", 33932.766604799996), ("quick", 429.04096768), ("power", 21902.124953600003)],
 )
