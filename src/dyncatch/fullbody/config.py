@@ -43,6 +43,13 @@ class Z1Cfg:
     commanded motion is one the motors can follow. Without it the targets' rate jumps to
     the speed limit in one step, the joints saturate and then overrun the Z1's 3.14 rad/s
     (measured: up to 1.8-2.7 x it, docs/fullbody.md, "Falls")."""
+    pd_speed_fraction: float | None = 0.9
+    """The joint PD drives toward at most this fraction of the Z1's speed limit
+    (``ArmCfg.max_joint_vel_rps``): the velocity it pulls toward, ``qd_des + kp / kd (q_des -
+    q)``, is clipped, re-evaluated every physics step (``arm_ik.speed_limited_pd_ctrl``), so a
+    lagging joint catches up at the limit. Ours: the margin leaves room for the trunk's own
+    motion, which the joints feel; None is the plain PD (which overran the limit by up to
+    1.58 x under the trained policy)."""
     joint_damping_nms_per_rad: float = 0.1
     """Passive joint damping of the MJCF joints. Ours: small; the URDF's 1-2 are Gazebo
     friction stand-ins, and the PD supplies the damping."""
@@ -54,8 +61,52 @@ class Z1Cfg:
 
 
 @dataclasses.dataclass(frozen=True)
+class MpcCfg:
+    """The convex MPC of the stance forces (``fullbody/mpc.py``; ``GaitCfg.controller``)."""
+
+    horizon_steps: int = 10
+    """Steps of the horizon, spread over one trot cycle (``GaitCfg.period_s``): 30 ms each at
+    the default period. Di Carlo et al. 2018 (MIT Cheetah 3): 10 steps over one gait cycle."""
+    state_weights: tuple[float, ...] = (
+        25.0,
+        25.0,
+        10.0,
+        5.0,
+        5.0,
+        50.0,
+        1.0,
+        1.0,
+        1.0,
+        2.0,
+        2.0,
+        1.0,
+    )
+    """Weights of the state error (roll, pitch, yaw; COM x, y, z; angular velocity x, y, z;
+    velocity x, y, z) at every step. Ours: the Cheetah's ordering and its heavy height
+    weight, with roll and pitch raised from its 0.25 to 25 because rolling toward the arm is
+    how this robot falls (docs/fullbody.md, "Falls")."""
+    force_weight: float = 1e-6
+    """Weight of the squared foot forces (per N^2); Cheetah 3's 4e-5 is for a 9 kg robot
+    with forces a third of ours."""
+    min_normal_force_n: float = 0.0
+    """Lower bound of a stance foot's normal force (the ground cannot pull)."""
+    max_normal_force_n: float = 400.0
+    """Upper bound of a stance foot's normal force. Ours: about 1.4 x the robot's weight
+    (29 kg) on one foot, within what the calf's 44.4 N m gives at the standing knee."""
+    solver: str = "proxqp"
+    """QP solver of ``qpsolvers`` (``proxqp``: ProxSuite's dense solver; ``osqp`` works too)."""
+
+
+@dataclasses.dataclass(frozen=True)
 class GaitCfg:
     """A model-based trot: force-distribution stance, Raibert foot placement, PD swing."""
+
+    controller: Literal["trot_dls", "mpc"] = "trot_dls"
+    """How the stance feet's forces are found (``fullbody.stance.STANCE_CONTROLLERS``):
+    ``trot_dls``, this step's desired wrench by weighted damped least squares; ``mpc``, a
+    convex MPC over one trot cycle (``MpcCfg``)."""
+    mpc: MpcCfg = MpcCfg()
+    """The MPC's horizon, weights and solver (used when ``controller`` is ``mpc``)."""
 
     period_s: float = 0.30
     """Trot cycle: each diagonal pair swings for half of it while the other stands. Ours:

@@ -20,6 +20,7 @@ which the environment re-evaluates at every physics step.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 
 import numpy as np
 
@@ -279,12 +280,17 @@ def limit_turn(cmd: np.ndarray, max_centripetal_mps2: float) -> np.ndarray:
 
 
 def trot_step(
-    obs: RobotObs, cmd: np.ndarray, state: GaitState, cfg: FullBodyCfg
+    obs: RobotObs,
+    cmd: np.ndarray,
+    state: GaitState,
+    cfg: FullBodyCfg,
+    stance_fn: Callable = stance_forces,
 ) -> tuple[JointTargets, GaitState]:
     """One 200 Hz control step of the legs: ``(JointTargets, next GaitState)``.
 
     ``cmd`` (3,): forward and left velocity (m/s) in the heading frame, yaw rate (rad/s);
-    the gait follows it through ``slew_command``.
+    the gait follows it through ``slew_command``. ``stance_fn``: the stance forces
+    (``fullbody.stance.STANCE_CONTROLLERS``).
     """
     g = cfg.gait
     dt = 1.0 / cfg.control_hz
@@ -332,8 +338,10 @@ def trot_step(
         vel_err_int_m=vel_int,
         cmd_ref=ref,
     )
-    cur = dataclasses.replace(state, trotting=trotting, yaw_ref_rad=float(yaw_ref), hold_xy_m=hold)
-    forces = stance_forces(obs, cmd, cur, stance, cfg)
+    cur = dataclasses.replace(
+        state, phase=phase, trotting=trotting, yaw_ref_rad=float(yaw_ref), hold_xy_m=hold
+    )
+    forces = stance_fn(obs, cmd, cur, stance, cfg)
 
     q_des = obs.leg_q_rad.copy()
     qd_des = np.zeros(12)
