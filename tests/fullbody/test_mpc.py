@@ -100,7 +100,7 @@ def test_mpc_trot_tracks_speed_and_yaw_rate_turning(mpc_env):
     env = mpc_env
     env.reset()
     rows = []
-    for k in range(round(4.0 * env.cfg.control_hz)):
+    for _ in range(round(4.0 * env.cfg.control_hz)):
         env.step(np.array([1.5, 0.0, 1.0]))
         assert not env.fallen()
         rows.append(env.base_velocity_heading())
