@@ -14,10 +14,16 @@ from dyncatch.fullbody.config import FullBodyCfg  # noqa: E402
 from dyncatch.fullbody.env import FullBodyEnv  # noqa: E402
 from dyncatch.fullbody.gait import GaitState, RobotObs, touchdown_point  # noqa: E402
 from dyncatch.fullbody.legs import nominal_feet_base  # noqa: E402
-from dyncatch.fullbody.mpc import contact_plan, mpc_stance_forces  # noqa: E402
+from dyncatch.fullbody.mpc import contact_plan, mpc_stance_forces, step_durations_s  # noqa: E402
 
 MPC = dataclasses.replace(
     FullBodyCfg(), gait=dataclasses.replace(FullBodyCfg().gait, controller="mpc")
+)
+EQUAL_STEPS = dataclasses.replace(
+    MPC,
+    gait=dataclasses.replace(
+        MPC.gait, mpc=dataclasses.replace(MPC.gait.mpc, short_first_step=False)
+    ),
 )
 MASS_KG = 28.9
 
@@ -42,7 +48,16 @@ def standing_obs(com_m=(0.0, 0.0, 0.33)) -> RobotObs:
 
 
 def gait_state(phase: float, trotting: bool) -> GaitState:
-    return GaitState(phase, trotting, 0.0, np.zeros(2), np.zeros((4, 3)), np.zeros(2), np.zeros(3))
+    zero2 = np.zeros(2)
+    return GaitState(phase, trotting, 0.0, zero2, np.zeros((4, 3)), zero2, zero2, np.zeros(3))
+
+
+def test_the_horizon_spans_one_cycle_its_first_step_one_control_period():
+    dts = step_durations_s(MPC)
+    assert dts.sum() == pytest.approx(MPC.gait.period_s)
+    assert dts[0] == pytest.approx(1.0 / MPC.control_hz)
+    np.testing.assert_allclose(dts[1:], (0.3 - 0.005) / 9)
+    np.testing.assert_allclose(step_durations_s(EQUAL_STEPS), 0.03)
 
 
 def test_contact_plan_by_hand():
@@ -51,16 +66,18 @@ def test_contact_plan_by_hand():
     # pair 0 swings at steps 0-2 and 8-9, pair 1 (FR, RL) at steps 3-7.
     obs, cmd = standing_obs(), np.array([1.0, 0.0, 0.0])
     stance = np.array([False, True, True, False])
-    sched, feet = contact_plan(obs, cmd, gait_state(0.25, True), stance, MPC)
+    sched, feet = contact_plan(obs, cmd, gait_state(0.25, True), stance, EQUAL_STEPS)
     pair0 = np.array([False, True, True, False])
     expected = np.array([pair0] * 3 + [~pair0] * 5 + [pair0] * 2)
     np.testing.assert_array_equal(sched, expected)
     # FL lands at 0.075 s (from step 3, t = 0.09 s, on) where Raibert puts it then; FR stands
     # where it is until it lands again at 0.075 + 0.15 = 0.225 s (step 8, t = 0.24 s).
-    np.testing.assert_allclose(feet[3:, 0], [touchdown_point(obs, cmd, 0, 0.075, MPC)] * 7)
+    land = touchdown_point(obs, cmd, 0, 0.075, EQUAL_STEPS)
+    np.testing.assert_allclose(feet[3:, 0], [land] * 7)
     np.testing.assert_allclose(feet[:3, 0], [obs.feet_m[0]] * 3)
     np.testing.assert_allclose(feet[:8, 1], [obs.feet_m[1]] * 8)
-    np.testing.assert_allclose(feet[8:, 1], [touchdown_point(obs, cmd, 1, 0.225, MPC)] * 2)
+    land = touchdown_point(obs, cmd, 1, 0.225, EQUAL_STEPS)
+    np.testing.assert_allclose(feet[8:, 1], [land] * 2)
     # Standing, all four feet stay down where they are.
     sched, feet = contact_plan(obs, cmd, gait_state(0.0, False), np.ones(4, bool), MPC)
     assert sched.all()

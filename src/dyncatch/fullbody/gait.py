@@ -79,6 +79,9 @@ class GaitState:
     """(4, 3) where each foot left the ground (the start of its swing path)."""
     vel_err_int_m: np.ndarray
     """(2,) integral of the velocity error (forward, left; heading frame), in metres."""
+    tilt_int_rad_s: np.ndarray
+    """(2,) integral of the trunk's roll and pitch (rad s): the MPC's offset-free reference
+    (``MpcCfg.ki_tilt_per_s``); the least-squares stance does not read it."""
     cmd_ref: np.ndarray
     """(3,) the command the gait follows: the given one under ``BaseCfg``'s acceleration
     limits (the reduced base's own limits, so both models see the same reference)."""
@@ -107,6 +110,7 @@ def initial_gait_state(obs: RobotObs) -> GaitState:
         hold_xy_m=obs.base_pos_m[:2].copy(),
         liftoff_m=obs.feet_m.copy(),
         vel_err_int_m=np.zeros(2),
+        tilt_int_rad_s=np.zeros(2),
         cmd_ref=np.zeros(3),
     )
 
@@ -329,6 +333,10 @@ def trot_step(
         err = cmd[:2] - np.array([c * v[0] + s_ * v[1], -s_ * v[0] + c * v[1]])
         lim = g.max_vel_int_m
         vel_int = np.clip(vel_int + err * dt, -lim, lim)
+    r = obs.base_rot
+    tilt = np.array([np.arctan2(r[2, 1], r[2, 2]), -np.arcsin(np.clip(r[2, 0], -1.0, 1.0))])
+    tilt_lim = g.mpc.max_tilt_int_rad_s
+    tilt_int = np.clip(state.tilt_int_rad_s + tilt * dt, -tilt_lim, tilt_lim)
     next_state = GaitState(
         phase=(phase + dt / g.period_s) % 1.0 if trotting else 0.0,
         trotting=trotting,
@@ -336,6 +344,7 @@ def trot_step(
         hold_xy_m=hold,
         liftoff_m=liftoff,
         vel_err_int_m=vel_int,
+        tilt_int_rad_s=tilt_int,
         cmd_ref=ref,
     )
     cur = dataclasses.replace(
