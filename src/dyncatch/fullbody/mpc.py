@@ -109,8 +109,11 @@ def _reference(
     ref[:, 0:2] = -g.mpc.ki_tilt_per_s * state.tilt_int_rad_s
     com_z = obs.com_m[2] + cfg.stand_height_m - obs.base_pos_m[2]
     if state.trotting:
-        # The velocity integral's steady share (the least-squares stance's P+I ratio).
-        v_int = (g.ki_vel_per_s2 / g.kp_vel_per_s) * (_rot_z(yaw)[:2, :2] @ state.vel_err_int_m)
+        # The velocity integral lifts the aim over the command (joint friction's lag).
+        v_int = g.mpc.vel_int_share * (_rot_z(yaw)[:2, :2] @ state.vel_err_int_m)
+        norm = float(np.linalg.norm(v_int))
+        if norm > g.mpc.max_vel_int_mps:
+            v_int *= g.mpc.max_vel_int_mps / norm
         c, s = np.cos(yaw_t), np.sin(yaw_t)
         vx = c * cmd[0] - s * cmd[1] + v_int[0]
         vy = s * cmd[0] + c * cmd[1] + v_int[1]
