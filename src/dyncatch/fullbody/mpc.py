@@ -3,13 +3,14 @@
 The robot is one rigid body at its centre of mass: state ``x = (roll, pitch, yaw, p, w, v)``
 (12,), world frame, with the linearisation of the MIT Cheetah 3 (Euler rates ``Rz(yaw)^T w``,
 the inertia rotated by the measured attitude, the feet's lever arms fixed over a step). Over
-``MpcCfg.horizon_steps`` steps of ``period_s / horizon_steps`` (one trot cycle) the timed
-gait's contact schedule is known, and so are the feet: those on the ground where they stand,
-those that will land at Raibert's point (``gait.touchdown_point``). The arm's measured
-reaction (``gait.arm_reaction``) enters as a known disturbance wrench, held over the horizon.
-The condensed QP (forces of the stance feet only, friction pyramids, normal-force bounds)
-is solved by ``qpsolvers`` (``MpcCfg.solver``); the first step's forces go to the feet as
-``-J^T f``, as the least-squares stance does.
+``MpcCfg.horizon_steps`` steps spanning one trot cycle (``step_durations_s``: the first one
+control period long) the timed gait's contact schedule is known, and so are the feet: those
+on the ground where they stand, those that will land at Raibert's point
+(``gait.touchdown_point``). The arm's measured reaction (``gait.arm_reaction``) enters as a
+known disturbance wrench, held over the horizon. The condensed QP (forces of the stance feet
+only, friction pyramids, normal-force bounds) is solved by ``qpsolvers`` (``MpcCfg.solver``);
+the first step's forces go to the feet as ``-J^T f``, as the least-squares stance does. Roll
+and pitch are integrated into the aim (offset-free), and so is the velocity error, clipped.
 
 Why it answers the arm where the least squares cannot: on two feet no force makes a moment
 about the line joining them, and a one-step solve gives that part up. Over a cycle the next
