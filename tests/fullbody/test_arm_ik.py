@@ -3,7 +3,13 @@
 import numpy as np
 import pytest
 
-from dyncatch.fullbody.arm_ik import dls_delta, limit_step, stow_target_step
+from dyncatch.fullbody.arm_ik import (
+    dls_delta,
+    limit_step,
+    scale_to_bound,
+    speed_limited_pd_ctrl,
+    stow_target_step,
+)
 from dyncatch.sim.config import ArmCfg
 
 
@@ -14,6 +20,25 @@ def test_dls_step_by_hand():
     # A joint the gripper does not depend on (a zero column) gets no motion.
     jac = np.hstack([np.eye(3), np.zeros((3, 1))])
     assert dls_delta(jac, e, 0.05, 1.0)[3] == 0.0
+
+
+def test_a_step_over_the_bound_is_scaled_as_a_whole_keeping_its_direction():
+    # Peak 0.04 over a bound of 0.01: every element a quarter; under the bound, unchanged.
+    dq = np.array([0.04, -0.02, 0.01, 0.0, 0.002, -0.04])
+    np.testing.assert_allclose(scale_to_bound(dq, 0.01), dq / 4)
+    np.testing.assert_array_equal(scale_to_bound(dq, 0.05), dq)
+
+
+def test_speed_limited_pd_is_the_pd_law_until_it_would_drive_past_the_limit():
+    # kp 30, kd 1: the servo's force kp (ctrl - q) - kd qd. A joint 0.01 rad behind a target
+    # moving at 1 rad/s is driven toward 1 + 30 x 0.01 = 1.3 rad/s: the plain PD law, 0.3 +
+    # 1 (1 - qd) + tau_ff. One 0.5 rad behind would be driven toward 16 rad/s: held to 3,
+    # its force is 1 (3 - qd) + tau_ff.
+    kp, kd, ff, qd = np.full(2, 30.0), np.full(2, 1.0), np.array([2.0, 2.0]), 0.5
+    q, q_des, qd_des = np.zeros(2), np.array([0.01, 0.5]), np.ones(2)
+    ctrl = speed_limited_pd_ctrl(q, qd_des, q_des, ff, kp, kd, 3.0)
+    force = kp * (ctrl - q) - kd * qd
+    np.testing.assert_allclose(force, [0.3 + (1.0 - qd) + 2.0, (3.0 - qd) + 2.0])
 
 
 def test_limit_step_bounds_the_rate_and_its_change_by_hand():

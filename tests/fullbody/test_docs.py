@@ -5,12 +5,12 @@ from pathlib import Path
 
 import pytest
 
-from dyncatch.fullbody.config import FullBodyCfg, GaitCfg, Z1Cfg
+from dyncatch.fullbody.config import FullBodyCfg, GaitCfg, MpcCfg, Z1Cfg
 
 DOC = (Path(__file__).resolve().parents[2] / "docs" / "fullbody.md").read_text()
 FIELDS = [
     (cls.__name__, f.name, getattr(cls(), f.name))
-    for cls in (FullBodyCfg, Z1Cfg, GaitCfg)
+    for cls in (FullBodyCfg, Z1Cfg, GaitCfg, MpcCfg)
     for f in dataclasses.fields(cls)
     if not dataclasses.is_dataclass(getattr(cls(), f.name))
 ]

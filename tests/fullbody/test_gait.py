@@ -170,12 +170,17 @@ def test_footholds_straddle_the_com_sideways():
         np.testing.assert_allclose(touchdown_point(left, np.zeros(3), leg, 0.1, off), base)
 
 
-def test_trotting_with_the_arm_swung_side_to_side_keeps_level_and_the_z1_speed_limit():
+@pytest.mark.parametrize("controller", ["trot_dls", "mpc"])
+def test_trotting_with_the_arm_swung_side_to_side_keeps_level_and_the_z1_speed_limit(controller):
     # 1 m/s forward while the arm's goal jumps between 0.6 m left and right every 0.4 s.
-    # Measured: max roll 0.13 rad, joint speed 1.09 x the Z1's 3.14 rad/s; before the arm was
-    # a Z1 and the gait knew it (kp 80, kd 3, no acceleration bound, rigid-robot stance,
-    # trunk-centred footholds): 0.32 rad and 1.66 x.
-    env = FullBodyEnv()
+    # Measured (trot_dls): max roll 0.11 rad, joint speed 0.93 x the Z1's 3.14 rad/s; with
+    # the plain PD (Z1Cfg.pd_speed_fraction None) 1.06 x, before the arm was a Z1 and the
+    # gait knew it (kp 80, kd 3, no acceleration bound, rigid-robot stance, trunk-centred
+    # footholds): 0.32 rad and 1.66 x.
+    cfg = FullBodyCfg()
+    env = FullBodyEnv(
+        dataclasses.replace(cfg, gait=dataclasses.replace(cfg.gait, controller=controller))
+    )
     env.reset()
     speed, roll = 0.0, 0.0
     for k in range(400):
@@ -186,5 +191,5 @@ def test_trotting_with_the_arm_swung_side_to_side_keeps_level_and_the_z1_speed_l
         speed = max(speed, np.abs(env.data.qvel[env.idx.arm_dof]).max())
         rot = env.data.xmat[env.idx.base_body].reshape(3, 3)
         roll = max(roll, abs(np.arctan2(rot[2, 1], rot[2, 2])))
-    assert speed < 1.15 * env.cfg.arm.max_joint_vel_rps
+    assert speed <= env.cfg.arm.max_joint_vel_rps
     assert roll < 0.2

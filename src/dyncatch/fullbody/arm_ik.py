@@ -31,6 +31,30 @@ def limit_step(
     return np.clip(dq, lo, hi)
 
 
+def scale_to_bound(dq: np.ndarray, bound: float) -> np.ndarray:
+    """``dq`` (n,) scaled as a whole so that no element exceeds ``bound`` in magnitude."""
+    peak = float(np.max(np.abs(dq)))
+    return dq if peak <= bound else dq * (bound / peak)
+
+
+def speed_limited_pd_ctrl(
+    q: np.ndarray,
+    qd_des: np.ndarray,
+    q_des: np.ndarray,
+    tau_ff: np.ndarray,
+    kp: np.ndarray,
+    kd: np.ndarray,
+    max_vel_rps: float,
+) -> np.ndarray:
+    """Position-servo setpoint (n,) whose force ``kp (ctrl - q) - kd qd`` is the PD law
+    ``kp (q_des - q) + kd (qd_des - qd) + tau_ff`` with the velocity it drives toward,
+    ``qd_des + kp / kd (q_des - q)``, held within ``max_vel_rps``: a joint far behind its
+    target catches up at the speed limit instead of overrunning it (a motor driver's
+    speed-limited position mode). All arrays (n,)."""
+    v_drive = np.clip(qd_des + kp / kd * (q_des - q), -max_vel_rps, max_vel_rps)
+    return q + (kd * v_drive + tau_ff) / kp
+
+
 def _brake(dq: np.ndarray, max_accel_rps2: float, dt_s: float) -> np.ndarray:
     """The step toward a joint change ``dq`` (6,) at no more than the fastest rate from which
     the acceleration bound still stops there in steps of ``dt_s`` (v^2 / 2a + v dt / 2 <= |dq|):
@@ -57,8 +81,10 @@ def ik_target_step(
     ``qd_prev`` (6,) is the last step's rate of the targets.
     """
     dq = dls_delta(jac, goal_m - gripper_m, arm.ik_damping, arm.ik_gain)
-    dq = np.clip(dq, -max_step_rad, max_step_rad)
-    dq = _brake(dq, max_accel_rps2, dt_s)
+    # Scaled as a whole, not clipped joint by joint, so that the step keeps its direction:
+    # first to the IK's own bound, then (after braking toward it) to the speed limit.
+    dq = _brake(scale_to_bound(dq, max_step_rad), max_accel_rps2, dt_s)
+    dq = scale_to_bound(dq, arm.max_joint_vel_rps * dt_s)
     q_new = q_des + limit_step(dq, qd_prev, arm.max_joint_vel_rps, max_accel_rps2, dt_s)
     return np.clip(q_new, arm.joint_min_rad, arm.joint_max_rad)
 

@@ -43,6 +43,13 @@ class Z1Cfg:
     commanded motion is one the motors can follow. Without it the targets' rate jumps to
     the speed limit in one step, the joints saturate and then overrun the Z1's 3.14 rad/s
     (measured: up to 1.8-2.7 x it, docs/fullbody.md, "Falls")."""
+    pd_speed_fraction: float | None = 0.9
+    """The joint PD drives toward at most this fraction of the Z1's speed limit
+    (``ArmCfg.max_joint_vel_rps``): the velocity it pulls toward, ``qd_des + kp / kd (q_des -
+    q)``, is clipped, re-evaluated every physics step (``arm_ik.speed_limited_pd_ctrl``), so a
+    lagging joint catches up at the limit. Ours: the margin leaves room for the trunk's own
+    motion, which the joints feel; None is the plain PD (which overran the limit by up to
+    1.58 x under the trained policy)."""
     joint_damping_nms_per_rad: float = 0.1
     """Passive joint damping of the MJCF joints. Ours: small; the URDF's 1-2 are Gazebo
     friction stand-ins, and the PD supplies the damping."""
@@ -54,8 +61,82 @@ class Z1Cfg:
 
 
 @dataclasses.dataclass(frozen=True)
+class MpcCfg:
+    """The convex MPC of the stance forces (``fullbody/mpc.py``; ``GaitCfg.controller``)."""
+
+    horizon_steps: int = 10
+    """Steps of the horizon, spread over one trot cycle (``GaitCfg.period_s``): 30 ms each at
+    the default period. Di Carlo et al. 2018 (MIT Cheetah 3): 10 steps over one gait cycle."""
+    short_first_step: bool = True
+    """The horizon's first step lasts one control period (the time its forces are held
+    before the next solve), the other steps share the rest of the cycle. Ours, measured
+    (``benchmarks/fullbody_arm_out.py``): with ten equal 30 ms steps the plan, believing its
+    first forces act for 30 ms, answers an error with a fraction of the force it needs in
+    5 ms: largest roll 0.10, pitch 0.17 rad, against 0.04 and 0.02 with the short step."""
+    state_weights: tuple[float, ...] = (
+        25.0,
+        25.0,
+        10.0,
+        5.0,
+        5.0,
+        200.0,
+        1.0,
+        1.0,
+        1.0,
+        2.0,
+        2.0,
+        1.0,
+    )
+    """Weights of the state error (roll, pitch, yaw; COM x, y, z; angular velocity x, y, z;
+    velocity x, y, z) at every step, each step's by its duration. Ours: the Cheetah's ordering;
+    roll and pitch raised from its 0.25 to 25 (rolling toward the arm is how this robot fell),
+    height from its 50 to 200 (measured: at 50, pursuit's start-up ramp to 2 m/s, 1 m/s
+    sideways and 2 rad/s sank the trunk to the fall height in 1 of 80 episodes; at 200, 0)."""
+    force_weight: float = 1e-6
+    """Weight of the squared foot forces' departure from the weight shared evenly over the
+    stance feet (per N^2 and step). Cheetah 3 weights the forces themselves (4e-5, for a
+    9 kg robot with forces a third of ours)."""
+    min_normal_force_n: float = 0.0
+    """Lower bound of a stance foot's normal force (the ground cannot pull)."""
+    max_normal_force_n: float = 400.0
+    """Upper bound of a stance foot's normal force. Ours: about 1.4 x the robot's weight
+    (29 kg) on one foot, within what the calf's 44.4 N m gives at the standing knee."""
+    vel_int_share: float = 2.5
+    """The aimed velocity is the command plus this times the velocity-error integral
+    (``GaitState.vel_err_int_m``, m, per s), the least-squares stance's P+I ratio
+    (``ki_vel_per_s2 / kp_vel_per_s``). Ours, measured: without it 1.5 m/s settles at 1.38."""
+    max_vel_int_mps: float = 0.15
+    """Largest lift of the aim by the integral. Ours, measured: unclipped, an infeasible
+    command (1.76 m/s while turning at 1.43 rad/s) wound it up to 2.5 m/s, the plan traded
+    the trunk's height for it and the robot sank (4 falls in 20 episodes of ``dyncatch bench
+    gait``; at 0.3, 1 in 6; at 0.15, none in 20)."""
+    ki_tilt_per_s: float = 5.0
+    """Integral feedback of roll and pitch: the plan aims at minus this times their integral
+    (offset-free MPC). Ours, measured: without it the trunk pitches 0.033 rad nose-down at
+    a steady 1.5 m/s (with it 0.006; the least-squares stance 0.026)."""
+    max_tilt_int_rad_s: float = 0.04
+    """Clip of the tilt integral (anti-windup), per axis: the aim moves by at most
+    ``ki_tilt_per_s`` times this (0.2 rad)."""
+    solver_tolerance: float = 1e-8
+    """Absolute tolerance of the QP solver (``eps_abs``), on the problem in units of the
+    robot's weight with its cost scaled to a unit largest curvature."""
+    solver: str = "proxqp"
+    """QP solver of ``qpsolvers`` (``proxqp``: ProxSuite's dense solver; ``osqp``, if
+    installed, gives the same forces)."""
+
+
+@dataclasses.dataclass(frozen=True)
 class GaitCfg:
     """A model-based trot: force-distribution stance, Raibert foot placement, PD swing."""
+
+    controller: Literal["trot_dls", "mpc"] = "mpc"
+    """How the stance feet's forces are found (``fullbody.stance.STANCE_CONTROLLERS``):
+    ``mpc``, a convex MPC over one trot cycle (``MpcCfg``); ``trot_dls``, this step's
+    desired wrench by weighted damped least squares. Ours, measured (docs/fullbody.md,
+    "Falls"): pursuit at 1.2 m/s, the same 80 episodes, ``mpc`` fell in 0 and caught 80
+    (7.7 s), ``trot_dls`` fell in 5 and caught 71 (10.3 s), at 1.8 x the CPU time."""
+    mpc: MpcCfg = MpcCfg()
+    """The MPC's horizon, weights and solver (used when ``controller`` is ``mpc``)."""
 
     period_s: float = 0.30
     """Trot cycle: each diagonal pair swings for half of it while the other stands. Ours:

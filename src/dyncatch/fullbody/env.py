@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from dyncatch.fullbody.arm_ik import ik_target_step, stow_target_step
+from dyncatch.fullbody.arm_ik import ik_target_step, speed_limited_pd_ctrl, stow_target_step
 from dyncatch.fullbody.config import FullBodyCfg, validate_fullbody
 from dyncatch.fullbody.gait import (
     GaitState,
@@ -21,6 +21,7 @@ from dyncatch.fullbody.gait import (
 )
 from dyncatch.fullbody.legs import FOOT_RADIUS_M, leg_ik, nominal_feet_base
 from dyncatch.fullbody.model import build_model, robot_mass_kg
+from dyncatch.fullbody.stance import STANCE_CONTROLLERS
 
 
 class FullBodyEnv:
@@ -52,6 +53,9 @@ class FullBodyEnv:
         self._arm_kp = np.asarray(z1.kp_nm_per_rad, float)
         self._arm_kd = np.asarray(z1.kd_nms_per_rad, float)
         self._arm_accel = z1.max_joint_accel_rps2
+        self._stance_fn = STANCE_CONTROLLERS[self.cfg.gait.controller]
+        frac = z1.pd_speed_fraction
+        self._arm_pd_speed_rps = None if frac is None else frac * self.cfg.arm.max_joint_vel_rps
 
     @property
     def dt_s(self) -> float:
@@ -142,7 +146,7 @@ class FullBodyEnv:
             raise RuntimeError("call reset() before step()")
         cmd = np.asarray(cmd, float)
         obs = self.observe()
-        legs, self.gait = trot_step(obs, cmd, self.gait, self.cfg)
+        legs, self.gait = trot_step(obs, cmd, self.gait, self.cfg, self._stance_fn)
         q_des = self._arm_targets(arm_goal_m)
         # The commanded joint velocity: the targets' step over the period (the SDK's dq).
         self.arm_qd_des = (q_des - self.arm_q_des) / self.dt_s
@@ -156,11 +160,15 @@ class FullBodyEnv:
         # Gravity (and Coriolis) compensation of the arm, held over the control period. The
         # arm's servos (model._add_arm) give kp (ctrl - q) - kd qd: this ctrl makes that
         # kp (q_des - q) + kd (qd_des - qd) + tau_ff, the Z1's PD law with its feedforward.
-        arm_ff = d.qfrc_bias[idx.arm_dof]
-        d.ctrl[idx.arm_ctrl] = self.arm_q_des + (self._arm_kd * self.arm_qd_des + arm_ff) / (
-            self._arm_kp
-        )
+        arm_ff = d.qfrc_bias[idx.arm_dof].copy()
+        kp, kd = self._arm_kp, self._arm_kd
+        d.ctrl[idx.arm_ctrl] = self.arm_q_des + (kd * self.arm_qd_des + arm_ff) / kp
+        limit = self._arm_pd_speed_rps
         for _ in range(self.cfg.substeps):
+            if limit is not None:
+                d.ctrl[idx.arm_ctrl] = speed_limited_pd_ctrl(
+                    d.qpos[idx.arm_qpos], self.arm_qd_des, self.arm_q_des, arm_ff, kp, kd, limit
+                )
             q, qd = d.qpos[idx.leg_qpos], d.qvel[idx.leg_dof]
             tau_leg = legs.kp * (legs.q_des - q) + legs.kd * (legs.qd_des - qd) + legs.tau_ff
             d.ctrl[idx.leg_ctrl] = np.clip(tau_leg, self._leg_lo, self._leg_hi)

