@@ -28,16 +28,13 @@ The criterion, written down before any of these runs existed (commit of this fil
 
 from __future__ import annotations
 
-import argparse
 import json
-from pathlib import Path
 
 import numpy as np
+from study_io import run_study, study_parser, write_summary
 
-from dyncatch.cli.main import main, parse
 from dyncatch.evaluation.intervals import welch
 from dyncatch.reproduce.aggregate import seed_means
-from dyncatch.reproduce.stages import estimate_s
 
 SIZES = ((128, 128, 64), (256, 256, 128), (64, 64))
 REFERENCE = (256, 256, 128)
@@ -170,35 +167,14 @@ def summarize(args) -> dict:
             f"{'reference' if name == size_name(REFERENCE) else h.get('holds')} |"
         )
     lines += ["", f"Standard by the criterion: {verdict['standard'] or 'not decided yet'}."]
-    args.summary_dir.mkdir(parents=True, exist_ok=True)
-    (args.summary_dir / "summary.json").write_text(json.dumps(verdict, indent=2) + "\n")
-    (args.summary_dir / "summary.md").write_text("\n".join(lines) + "\n")
+    write_summary(args.summary_dir, verdict, lines)
     return verdict
 
 
 def run(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=Path, default=Path("results/network_size"))
-    ap.add_argument("--summary-dir", type=Path, default=Path("benchmarks/results/network_size"))
-    ap.add_argument("--seeds", type=int, default=5)
-    ap.add_argument("--train-steps", type=int, default=4_000_000)
-    ap.add_argument("--episodes", type=int, default=300)
-    ap.add_argument("--dry-run", action="store_true")
-    ap.add_argument("--summarize-only", action="store_true")
+    ap = study_parser(__doc__.splitlines()[0], "network_size")
     args = ap.parse_args(argv)
-    if not args.summarize_only:
-        for size in SIZES:
-            cmd = study_argv(args, size)
-            print(" ".join(cmd))
-            print(f"estimated {estimate_s(parse(cmd)[1]) / 3600:.2f} h on 2 cores")
-            if not args.dry_run and main(cmd) != 0:
-                return 2
-            if not args.dry_run:
-                summarize(args)
-    if not args.dry_run:
-        summarize(args)
-        print((args.summary_dir / "summary.md").read_text())
-    return 0
+    return run_study(args, [study_argv(args, size) for size in SIZES], summarize)
 
 
 if __name__ == "__main__":

@@ -25,15 +25,13 @@ The analysis, written down before any of these runs existed:
 
 from __future__ import annotations
 
-import argparse
 import json
-from pathlib import Path
 
-from dyncatch.cli.main import main, parse
+from study_io import run_study, study_parser, write_summary
+
 from dyncatch.evaluation.intervals import holm, welch
 from dyncatch.reproduce.aggregate import seed_means
 from dyncatch.reproduce.readings import PAPER_LITERAL, setting_name
-from dyncatch.reproduce.stages import estimate_s
 
 READINGS = ("gamma_held", "paper_observation", "fov_half_angle", "beta_heading",
             "arm_on_sighting")  # fmt: skip
@@ -131,38 +129,16 @@ def summarize(args) -> dict:
     ]
     gives = ", ".join(result["gives_rl_its_catch"]) or "none resolved"
     lines += ["", f"Readings whose removal of information resolvedly lowers rl: {gives}."]
-    args.summary_dir.mkdir(parents=True, exist_ok=True)
-    (args.summary_dir / "summary.json").write_text(json.dumps(result, indent=2) + "\n")
-    (args.summary_dir / "summary.md").write_text("\n".join(lines) + "\n")
+    write_summary(args.summary_dir, result, lines)
     return result
 
 
 def run(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=Path, default=Path("results/parity"))
-    ap.add_argument("--summary-dir", type=Path, default=Path("benchmarks/results/parity"))
-    ap.add_argument("--seeds", type=int, default=5)
-    ap.add_argument("--train-steps", type=int, default=4_000_000)
-    ap.add_argument("--episodes", type=int, default=300)
+    ap = study_parser(__doc__.splitlines()[0], "parity")
     ap.add_argument("--hidden-sizes", type=int, nargs="*", default=None,
                     help="the PPO network (default: the standard setting's)")  # fmt: skip
-    ap.add_argument("--dry-run", action="store_true")
-    ap.add_argument("--summarize-only", action="store_true")
     args = ap.parse_args(argv)
-    total = 0.0
-    for setting in () if args.summarize_only else SETTINGS:
-        cmd = study_argv(args, setting)
-        print(" ".join(cmd))
-        total += estimate_s(parse(cmd)[1])
-        if not args.dry_run:
-            if main(cmd) != 0:
-                return 2
-            summarize(args)
-    print(f"estimated {total / 3600:.2f} h on 2 cores")
-    if not args.dry_run:
-        summarize(args)
-        print((args.summary_dir / "summary.md").read_text())
-    return 0
+    return run_study(args, [study_argv(args, s) for s in SETTINGS], summarize)
 
 
 if __name__ == "__main__":
