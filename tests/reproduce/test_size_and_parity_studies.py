@@ -1,0 +1,78 @@
+"""The network-size and parity studies' criteria on hand-made results
+(benchmarks/network_size_study.py, benchmarks/parity_study.py)."""
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import pytest
+
+_BENCH = Path(__file__).resolve().parents[2] / "benchmarks"
+
+
+def _load(name):
+    sys.path.insert(0, str(_BENCH))  # the studies import their sibling study_io
+    try:
+        spec = importlib.util.spec_from_file_location(name, _BENCH / f"{name}.py")
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+    finally:
+        sys.path.remove(str(_BENCH))
+    return module
+
+
+size_study = _load("network_size_study")
+parity_study = _load("parity_study")
+
+SEEDS = (-0.02, -0.01, 0.0, 0.01, 0.02)
+
+
+def _results(methods, behaviors, success_of, plateau=0.95):
+    cells = [
+        {
+            "behavior": b,
+            "method": m,
+            "speed_mps": v,
+            "per_seed_success": [success_of(m, b) + d for d in SEEDS],
+        }  # fmt: skip
+        for b in behaviors
+        for m in methods
+        for v in (1.6, 1.8)
+    ]
+    training = [{"method": m, "final_eval_success_rate": plateau, "wall_s": 60.0}
+                for m in methods]  # fmt: skip
+    return {"table_i": {"cells": cells}, "training": training}
+
+
+def test_the_smallest_size_within_the_margin_for_every_method_is_the_standard():
+    def at(shift_rl):
+        return _results(size_study.METHODS, size_study.BEHAVIORS,
+                        lambda m, b: 0.8 + (shift_rl if m == "rl" else 0.0))  # fmt: skip
+
+    by_size = {"256-256-128": at(0.0), "128-128-64": at(-0.04), "64-64": at(-0.06)}
+    verdict = size_study.judge(by_size)
+    assert verdict["holds"]["128-128-64"]["holds"] and not verdict["holds"]["64-64"]["holds"]
+    assert verdict["standard"] == "128-128-64" and verdict["complete"]
+    rl = next(r for r in verdict["rows"] if r["size"] == "64-64" and r["method"] == "rl")
+    assert rl["difference"] == pytest.approx(-0.06) and rl["resolved"]
+    # The oracle's plateau must hold too; without the reference nothing is decided.
+    by_size["128-128-64"]["training"] = [
+        {**t, "final_eval_success_rate": 0.5} for t in by_size["128-128-64"]["training"]
+    ]
+    assert size_study.judge(by_size)["standard"] == "256-256-128"
+    assert size_study.judge({"128-128-64": at(0.0)})["standard"] is None
+
+
+def test_a_reading_that_resolvedly_lowers_rl_is_the_one_that_gives_it_its_catch():
+    methods, behaviors = parity_study.METHODS, parity_study.BEHAVIORS
+    default = _results(methods, behaviors, lambda m, b: 0.9)
+    hidden = _results(methods, behaviors, lambda m, b: 0.5 if m == "rl" else 0.9)
+    result = parity_study.analyse({"default": default, "paper_observation": hidden,
+                                   "gamma_held": default})  # fmt: skip
+    verdicts = {(r["setting"], r["method"]): r["verdict"] for r in result["primary"]}
+    assert verdicts[("paper_observation", "rl")] == "lowers"
+    assert verdicts[("paper_observation", "sp_rl")] == "unresolved"
+    assert result["gives_rl_its_catch"] == ["paper_observation"]
+    label = "paper_observation, reactive: sp_rl - rl"
+    sp_minus_rl = next(r for r in result["secondary"] if r["label"] == label)
+    assert sp_minus_rl["difference"] == pytest.approx(0.4)
