@@ -73,7 +73,9 @@ def plateau(results: dict, method: str = "gt_rl") -> float | None:
 
 
 def train_seconds(results: dict) -> float:
-    return float(np.median([r["wall_s"] for r in results["training"]]))
+    """The fastest run's training seconds: the others ran beside other jobs (or paused), so
+    the least contended run is the closest to an idle machine's figure."""
+    return float(np.min([r["wall_s"] for r in results["training"]]))
 
 
 def judge(by_size: dict[str, dict]) -> dict:
@@ -130,7 +132,7 @@ def summarize(args) -> dict:
         name: {
             "seed_success": {m: seed_success(res, m) for m in METHODS},
             "gt_rl_plateau": plateau(res),
-            "median_training_s": train_seconds(res),
+            "fastest_training_s": train_seconds(res),
         }
         for name, res in by_size.items()
     }
@@ -157,7 +159,7 @@ def summarize(args) -> dict:
     for name, d in verdict["per_size"].items():
         means = [np.mean(v) if v else float("nan") for v in d["seed_success"].values()]
         lines.append(f"| {name} | " + " | ".join(f"{x:.3f}" for x in means) + " |")
-    lines += ["", "| size | median training s/seed | gt_rl plateau | holds |"]
+    lines += ["", "| size | fastest training s/seed (shared machine) | gt_rl plateau | holds |"]
     lines += ["|---|---:|---:|---|"]
     for name, res in by_size.items():
         h = verdict["holds"].get(name, {})

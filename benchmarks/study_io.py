@@ -7,6 +7,9 @@ import argparse
 import json
 from pathlib import Path
 
+from dyncatch.cli.main import main, parse
+from dyncatch.reproduce.stages import estimate_s
+
 
 def study_parser(description: str, name: str) -> argparse.ArgumentParser:
     """The studies' common flags; ``name`` names the default folders."""
@@ -32,9 +35,6 @@ def run_study(args, argvs: list[list[str]], summarize) -> int:
     """Run each ``dyncatch`` command of ``argvs`` in order (cached: a re-run resumes),
     printing it and its estimate, and ``summarize(args)`` after each and at the end;
     ``--dry-run`` only prints, ``--summarize-only`` only summarises."""
-    from dyncatch.cli.main import main, parse
-    from dyncatch.reproduce.stages import estimate_s
-
     total = 0.0
     for cmd in () if args.summarize_only else argvs:
         print(" ".join(cmd))
