@@ -78,6 +78,11 @@ def train_seconds(results: dict) -> float:
     return float(np.min([r["wall_s"] for r in results["training"]]))
 
 
+def parameters(name: str) -> int:
+    """The size's order for "smallest": the product of its widths."""
+    return int(np.prod([int(w) for w in name.split("-")]))
+
+
 def judge(by_size: dict[str, dict]) -> dict:
     """The criterion above, over the sizes whose reproduction finished."""
     ref = by_size.get(size_name(REFERENCE))
@@ -115,8 +120,14 @@ def judge(by_size: dict[str, dict]) -> dict:
                        "holds": bool(ok and plateau_ok)}  # fmt: skip
     passing = [n for n, h in holds.items() if h["holds"]]
     finished_all = len(by_size) == len(SIZES)
-    smallest = min(passing, key=lambda n: np.prod([int(w) for w in n.split("-")]), default=None)
-    standard = smallest or (size_name(REFERENCE) if finished_all else None)
+    smallest = min(passing, key=parameters, default=None)
+    # A smaller size still to run may hold too: the standard waits for it.
+    pending_smaller = smallest is not None and any(
+        size_name(s) not in by_size and parameters(size_name(s)) < parameters(smallest)
+        for s in SIZES
+    )
+    standard = None if pending_smaller else smallest
+    standard = standard or (size_name(REFERENCE) if finished_all else None)
     return {"rows": rows, "holds": holds, "reference_plateau": ref_plateau,
             "standard": standard, "complete": finished_all}  # fmt: skip
 
