@@ -152,7 +152,7 @@ def test_commanded_applies_the_turn_in_its_state():
 
 
 def test_listings_take_the_scripted_behaviours():
-    assert set(BEHAVIORS) - set(scripted_behaviors()) == {"learned", "commanded"}
+    assert set(BEHAVIORS) - set(scripted_behaviors()) == {"learned", "commanded", "league"}
 
 
 class TestCheckpointErrors:
