@@ -113,12 +113,18 @@ class EvaderEnv:
     pursuers: tuple
     """The frozen pursuers (``frozen_pursuer``), one drawn per episode."""
     reward: EvaderRewardCfg = EvaderRewardCfg()
+    pursuer_weights: tuple[float, ...] = struct.field(pytree_node=False, default=())
+    """The chance of each pursuer per episode (normalised; a 0 never plays); empty: uniform."""
 
     def reset(self, key: jax.Array) -> EvaderEnvState:
         ws = sim_env.reset(key, self.world)
         obs = sim_env.observe(ws, self.world)
         k = jax.random.fold_in(key, PURSUER_STREAM)
-        index = jax.random.randint(k, (), 0, len(self.pursuers))
+        if self.pursuer_weights:
+            logits = jnp.log(jnp.asarray(self.pursuer_weights, jnp.float32))
+            index = jax.random.categorical(k, logits).astype(jnp.int32)
+        else:
+            index = jax.random.randint(k, (), 0, len(self.pursuers))
         carries = tuple(p.init_carry(ws, obs) for p in self.pursuers)
         return EvaderEnvState(ws, obs, index, carries)
 
@@ -187,12 +193,26 @@ class EvaderEnv:
         return Spec((1,), jnp.full((1,), -TURN_LIMIT_RAD), jnp.full((1,), TURN_LIMIT_RAD))
 
 
-def evader_env(world: WorldCfg, pursuers, reward: EvaderRewardCfg | None = None) -> EvaderEnv:
+def evader_env(
+    world: WorldCfg,
+    pursuers,
+    reward: EvaderRewardCfg | None = None,
+    weights: tuple[float, ...] = (),
+) -> EvaderEnv:
     """An ``EvaderEnv`` in ``world`` (its behaviour set to ``commanded``) against a pursuer
-    or a list or tuple of them, one drawn per episode (policies built for that world:
-    ``policies.registry.BASELINES[name](world)``)."""
+    or a list or tuple of them, one drawn per episode with ``weights`` (one per pursuer,
+    normalised; empty: uniform). Pursuers are policies built for that world
+    (``policies.registry.BASELINES[name](world)``) or trained runs' (``rl.policy.load_run``)."""
     pursuers = tuple(pursuers) if isinstance(pursuers, list | tuple) else (pursuers,)
     if not pursuers:
         raise ValueError("give the evader at least one pursuer")
+    weights = tuple(float(w) for w in weights)
+    if weights and (len(weights) != len(pursuers) or min(weights) < 0 or not sum(weights) > 0):
+        raise ValueError(
+            f"pursuer weights {list(weights)}: give {len(pursuers)} non-negative weights "
+            "with a positive sum, or none (uniform)"
+        )
     frozen = tuple(frozen_pursuer(p) for p in pursuers)
-    return EvaderEnv(world.with_behavior("commanded"), frozen, reward or EvaderRewardCfg())
+    total = sum(weights)
+    weights = tuple(w / total for w in weights)
+    return EvaderEnv(world.with_behavior("commanded"), frozen, reward or EvaderRewardCfg(), weights)
