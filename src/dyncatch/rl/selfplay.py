@@ -249,40 +249,34 @@ class SelfPlayRunner:
         league = pursuer_cfg(cfg, k, cfg.methods[0]).world
         for method in cfg.methods:
             for run in pursuer_runs(cfg, k, method):
-                br = exploit_cfg(cfg, run, k)
-                stages.append(
-                    Stage(
-                        f"round{k}/exploit/{method}/seed{run.seed}",
-                        br.out,
-                        to_json(br),
-                        lambda p, br=br: train_evader(br, p),
-                    )
-                )
-                ev_out = cfg.out / f"round{k}" / "eval" / method / f"seed{run.seed}"
-                spec = {
-                    "run": str(run.out),
-                    "best_response": str(br.out),
-                    "league": to_json(league),
-                    "speeds_mps": list(cfg.eval_speeds_mps),
-                    "episodes": cfg.eval_episodes,
-                    "eval_seed": cfg.eval_seed,
-                }
-                stages.append(
-                    Stage(
-                        f"round{k}/eval/{method}/seed{run.seed}",
-                        ev_out,
-                        spec,
-                        lambda _, run=run, br=br, league=league: evaluate_pursuer(
-                            run.out,
-                            league,
-                            br.out,
-                            cfg.eval_speeds_mps,
-                            cfg.eval_episodes,
-                            cfg.eval_seed,
-                        ),
-                    )
-                )
+                stages += self.exploit_stages(k, run, league)
         return stages
+
+    def exploit_stages(self, k: int, run: TrainRunCfg, league: WorldCfg) -> list[Stage]:
+        """One pursuer run's best-response evader and its evaluation against the league
+        and that evader."""
+        cfg = self.cfg
+        br = exploit_cfg(cfg, run, k)
+        name = f"{run.method}/seed{run.seed}"
+        spec = {
+            "run": str(run.out),
+            "best_response": str(br.out),
+            "league": to_json(league),
+            "speeds_mps": list(cfg.eval_speeds_mps),
+            "episodes": cfg.eval_episodes,
+            "eval_seed": cfg.eval_seed,
+        }
+
+        def evaluate(progress: Progress | None) -> dict:
+            del progress
+            return evaluate_pursuer(
+                run.out, league, br.out, cfg.eval_speeds_mps, cfg.eval_episodes, cfg.eval_seed
+            )
+
+        return [
+            Stage(f"round{k}/exploit/{name}", br.out, to_json(br), lambda p: train_evader(br, p)),
+            Stage(f"round{k}/eval/{name}", cfg.out / f"round{k}" / "eval" / name, spec, evaluate),
+        ]
 
     def learn(self, progress: Progress | None = None) -> list[dict]:
         """Every round's stages (finished ones skipped); returns the summary rows."""
@@ -304,7 +298,7 @@ class SelfPlayRunner:
 def _trainer(pc: TrainRunCfg):
     def make(progress: Progress | None = None) -> dict:
         out = make_runner(pc).learn(progress)
-        last = out if isinstance(out, dict) else out[-1]
-        return {"success_rate": float(last.get("success_rate", float("nan")))}
+        per_seed = [out] if isinstance(out, dict) else out
+        return {"success_rate": [float(m.get("success_rate", float("nan"))) for m in per_seed]}
 
     return make
