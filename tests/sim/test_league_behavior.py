@@ -9,6 +9,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from dyncatch.cli.main import main
 from dyncatch.sim import env
 from dyncatch.sim.behaviors.evader_net import EVADER_CHECKPOINT, EvaderNet, save_evader
 from dyncatch.sim.behaviors.league import league_weights
@@ -169,3 +170,24 @@ class TestRefused:
             "--world.target.league-evaders",
             "no such file",
         )
+
+
+def test_the_eval_command_plays_a_league(evader_file, capsys):
+    rc = main(
+        [
+            "eval",
+            "pursuit",
+            "--speeds",
+            "1.6",
+            "--episodes",
+            "4",
+            "--behavior",
+            "league",
+            "--world.target.league-behaviors",
+            "reactive",
+            "circle",
+            "--world.target.league-evaders",
+            evader_file,
+        ]
+    )
+    assert rc == 0, capsys.readouterr().err
