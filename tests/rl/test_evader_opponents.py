@@ -11,6 +11,9 @@ import pytest
 
 from dyncatch.policies.intercept import intercept_policy
 from dyncatch.policies.pursuit import pursuit_policy
+from dyncatch.predictor.checkpoint import save as save_predictor
+from dyncatch.predictor.config import PredictorCfg
+from dyncatch.predictor.model import Predictor
 from dyncatch.rl.config import PPOCfg
 from dyncatch.rl.evader import evader_env
 from dyncatch.rl.evader_train import EvaderTrainCfg, load_pursuer, train_evader
@@ -23,14 +26,13 @@ TINY = PPOCfg(num_envs=16, num_steps=8, num_minibatches=2, update_epochs=1, hidd
 WORLD = WorldCfg().with_speed(1.6)
 
 
-@pytest.fixture(scope="module")
-def pursuer_run(tmp_path_factory):
-    """A one-iteration ``rl`` pursuer run in the default world."""
-    out = tmp_path_factory.mktemp("pursuer")
+def _one_iteration_run(out, method: str = "rl", predictor=None):
+    """A one-iteration pursuer run of ``method`` in the default world."""
     cfg = TrainRunCfg(
-        method="rl",
+        method=method,
         total_steps=TINY.batch_size,
         out=out,
+        predictor=predictor,
         eval_every=0,
         logger=("csv",),
         ppo=TINY,
@@ -38,6 +40,11 @@ def pursuer_run(tmp_path_factory):
     )
     TrainRunner(cfg).learn()
     return out
+
+
+@pytest.fixture(scope="module")
+def pursuer_run(tmp_path_factory):
+    return _one_iteration_run(tmp_path_factory.mktemp("pursuer"))
 
 
 def _rollout(env, key, steps: int = 40):
@@ -83,6 +90,18 @@ class TestMixAtWeightOne:
         a = jax.jit(lambda k: _rollout(alone, k))(jax.random.key(0))[0]
         b = jax.jit(lambda k: _rollout(scripted, k))(jax.random.key(0))[0]
         assert float(jnp.abs(a - b).max()) > 0.05
+
+
+def test_predictor_and_ground_truth_runs_mix(tmp_path):
+    """sp_rl (its predictor loaded from the checkpoint's header) and gt_rl (the target's true
+    velocity, read from the evader's world) in one mix: each alone at weight 1."""
+    pred = Predictor.for_world(PredictorCfg(kind="self_aware", hidden=(8,)), WorldCfg())
+    save_predictor(tmp_path / "p.safetensors", pred, pred.init(jax.random.key(0)))
+    sp = load_run(_one_iteration_run(tmp_path / "sp", "sp_rl", tmp_path / "p.safetensors"))
+    gt = load_run(_one_iteration_run(tmp_path / "gt", "gt_rl"))
+    both = [sp.policy, gt.policy]
+    _same_episodes(evader_env(WORLD, both, weights=(1.0, 0.0)), evader_env(WORLD, sp.policy), (0,))
+    _same_episodes(evader_env(WORLD, both, weights=(0.0, 1.0)), evader_env(WORLD, gt.policy), (0,))
 
 
 def test_the_drawn_opponent_follows_the_weights():
