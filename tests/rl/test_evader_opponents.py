@@ -15,7 +15,7 @@ from dyncatch.predictor.checkpoint import save as save_predictor
 from dyncatch.predictor.config import PredictorCfg
 from dyncatch.predictor.model import Predictor
 from dyncatch.rl.config import PPOCfg
-from dyncatch.rl.evader import evader_env
+from dyncatch.rl.evader import evader_env, stack_groups
 from dyncatch.rl.evader_train import EvaderTrainCfg, load_pursuer, train_evader
 from dyncatch.rl.policy import load_run
 from dyncatch.rl.runner import TrainRunCfg, TrainRunner
@@ -26,11 +26,12 @@ TINY = PPOCfg(num_envs=16, num_steps=8, num_minibatches=2, update_epochs=1, hidd
 WORLD = WorldCfg().with_speed(1.6)
 
 
-def _one_iteration_run(out, method: str = "rl", predictor=None):
+def _one_iteration_run(out, method: str = "rl", predictor=None, seed: int = 0):
     """A one-iteration pursuer run of ``method`` in the default world."""
     cfg = TrainRunCfg(
         method=method,
         total_steps=TINY.batch_size,
+        seed=seed,
         out=out,
         predictor=predictor,
         eval_every=0,
@@ -90,6 +91,17 @@ class TestMixAtWeightOne:
         a = jax.jit(lambda k: _rollout(alone, k))(jax.random.key(0))[0]
         b = jax.jit(lambda k: _rollout(scripted, k))(jax.random.key(0))[0]
         assert float(jnp.abs(a - b).max()) > 0.05
+
+
+def test_seeds_of_one_method_run_stacked(pursuer_run, tmp_path):
+    """Two seeds of rl run as one stacked network (the scripted pursuers alone): each seed
+    alone at weight 1, and its own carry and command."""
+    seeds = [load_run(pursuer_run).policy, load_run(_one_iteration_run(tmp_path, seed=1)).policy]
+    both = [seeds[0], pursuit_policy(WORLD), seeds[1], intercept_policy(WORLD)]
+    assert stack_groups(evader_env(WORLD, both).pursuers) == [[0, 2], [1], [3]]
+    for i in (0, 2):
+        weights = tuple(float(j == i) for j in range(4))
+        _same_episodes(evader_env(WORLD, both, weights=weights), evader_env(WORLD, both[i]), (0,))
 
 
 def test_predictor_and_ground_truth_runs_mix(tmp_path):
