@@ -15,7 +15,8 @@ from dyncatch.rl import selfplay
 from dyncatch.rl.config import PPOCfg
 from dyncatch.rl.exploitability import exploitability
 from dyncatch.rl.policy import CHECKPOINT
-from dyncatch.rl.selfplay import SelfPlayCfg, SelfPlayRunner
+from dyncatch.rl.selfplay import SelfPlayRunner
+from dyncatch.rl.selfplay_cfg import SelfPlayCfg
 from dyncatch.rl.stages import Stage, run_stage
 from dyncatch.sim.behaviors.evader_net import EVADER_CHECKPOINT
 from dyncatch.utils.tree_io import read_header
@@ -165,6 +166,7 @@ class TestBadInput:
             ({"methods": ("sp_fp",)}, "'gt_rl' instead"),
             ({"methods": ("rl", "rl")}, "--methods"),
             ({"exploit_steps": -1}, "--exploit-steps"),
+            ({"first_pursuers": ("nobody",)}, "--first-pursuers"),
             ({"league_behaviors": ("bounce",)}, "league_behaviors"),
             ({"league_scripted_share": 2.0}, "league_scripted_share"),
         ],

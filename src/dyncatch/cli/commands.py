@@ -35,7 +35,7 @@ from dyncatch.predictor.pipeline import PredictorTrainCfg
 from dyncatch.reproduce.plan import Plan, profile_default
 from dyncatch.rl.evader_train import EvaderTrainCfg
 from dyncatch.rl.runner import TrainRunCfg
-from dyncatch.rl.selfplay import SelfPlayCfg
+from dyncatch.rl.selfplay_cfg import SelfPlayCfg
 
 
 @dataclass(frozen=True)

@@ -6,7 +6,8 @@ from __future__ import annotations
 
 from dyncatch.cli.progress import rich_progress
 from dyncatch.rl.evader_train import EvaderTrainCfg, train_evader
-from dyncatch.rl.selfplay import SelfPlayCfg, SelfPlayRunner
+from dyncatch.rl.selfplay import SelfPlayRunner
+from dyncatch.rl.selfplay_cfg import SelfPlayCfg
 from dyncatch.sim.behaviors.evader_net import EVADER_CHECKPOINT
 
 
