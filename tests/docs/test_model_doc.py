@@ -34,6 +34,8 @@ def test_every_constant_has_a_row_with_its_default(group, name, default):
         assert str(default) in cells, f"{group}.{name} = {default} not in: {cells}"
     elif isinstance(default, str):
         assert default in cells
+    elif isinstance(default, tuple) and all(isinstance(v, str) for v in default):
+        assert all(v in cells for v in default), f"{group}.{name} = {default} not in: {cells}"
     elif isinstance(default, tuple):
         numbers = [float(x) for x in re.findall(r"-?\d+(?:\.\d+)?", cells)]
         assert all(any(math.isclose(v, x, abs_tol=1e-9) for x in numbers) for v in default)

@@ -76,6 +76,10 @@ class TestComposedTargetCfg:
             "random_turn_hold_s",
             "evader_checkpoint",
             "evader_sample",
+            "league_behaviors",
+            "league_evaders",
+            "league_scripted_share",
+            "league_weights",
         ]
         assert BEHAVIORS["learned"].param_names == ("evader_checkpoint", "evader_sample")
         assert BEHAVIORS["commanded"].param_names == ()

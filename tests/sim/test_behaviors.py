@@ -35,6 +35,7 @@ def test_registry_names_every_behavior():
         "bounce",
         "circle",
         "commanded",
+        "league",
         "learned",
         "random_reactive",
         "reactive",

@@ -10,7 +10,12 @@ import pytest
 
 from dyncatch.sim import env
 from dyncatch.sim.behaviors import BEHAVIORS, EvaderState, scripted_behaviors
-from dyncatch.sim.behaviors.evader_net import EVADER_CHECKPOINT, EvaderNet, save_evader
+from dyncatch.sim.behaviors.evader_net import (
+    EVADER_CHECKPOINT,
+    EvaderNet,
+    _load_cached,
+    save_evader,
+)
 from dyncatch.sim.behaviors.learned import (
     EVADER_OBS_DIM,
     FEATURE_NAMES,
@@ -152,7 +157,7 @@ def test_commanded_applies_the_turn_in_its_state():
 
 
 def test_listings_take_the_scripted_behaviours():
-    assert set(BEHAVIORS) - set(scripted_behaviors()) == {"learned", "commanded"}
+    assert set(BEHAVIORS) - set(scripted_behaviors()) == {"learned", "commanded", "league"}
 
 
 class TestCheckpointErrors:
@@ -188,3 +193,12 @@ class TestCheckpointErrors:
 
     def test_a_run_folder_is_read(self, away_file, tmp_path):
         assert _learned_world(str(tmp_path)).target.evader_checkpoint == str(tmp_path)
+
+
+def test_a_first_load_inside_a_traced_step_gives_constants(tmp_path):
+    # No validate_world first: the file is read while the step is traced.
+    world = _learned_world(str(save_evader(tmp_path / EVADER_CHECKPOINT, _away_net())))
+    _load_cached.cache_clear()  # _learned_world validated (and so loaded) it
+    s0 = env.reset(jax.random.key(0), world)
+    step = jax.jit(lambda s: env.step(s, jnp.zeros(3), world)[0])
+    assert np.all(np.isfinite(np.asarray(step(s0).target.xy_m)))

@@ -23,7 +23,7 @@ from dyncatch.cli.bench import (
     run_ppo_bench,
 )
 from dyncatch.cli.demo import DemoCmd, run_demo
-from dyncatch.cli.evader import run_evader_train
+from dyncatch.cli.evader import run_evader_selfplay, run_evader_train
 from dyncatch.cli.eval import EvalCmd, run_eval, run_world_default
 from dyncatch.cli.export import ExportCmd, run_export
 from dyncatch.cli.plot import PlotCmd, run_plot
@@ -35,6 +35,7 @@ from dyncatch.predictor.pipeline import PredictorTrainCfg
 from dyncatch.reproduce.plan import Plan, profile_default
 from dyncatch.rl.evader_train import EvaderTrainCfg
 from dyncatch.rl.runner import TrainRunCfg
+from dyncatch.rl.selfplay_cfg import SelfPlayCfg
 
 
 @dataclass(frozen=True)
@@ -68,8 +69,12 @@ COMMANDS: dict[str, Command | Group] = {
         },
     ),
     "evader": Group(
-        "Targets that learn to escape (issue 34): a PPO evader against a frozen pursuer.",
-        {"train": Command(EvaderTrainCfg, run_evader_train)},
+        "Targets that learn to escape (issue 34): a PPO evader against frozen pursuers, and "
+        "self-play rounds of evaders and pursuers.",
+        {
+            "train": Command(EvaderTrainCfg, run_evader_train),
+            "selfplay": Command(SelfPlayCfg, run_evader_selfplay),
+        },
     ),
     "predictor": Group(
         "The target-behaviour predictor (Section III-B, Table II).",

@@ -20,26 +20,13 @@ that exists is whole.
 
 from __future__ import annotations
 
-import json
-import os
-import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
 from dyncatch.reproduce.plan import PROFILES, Plan
 from dyncatch.rl.methods import get_method
 from dyncatch.utils.config_io import config_diff, flatten
-from dyncatch.utils.files import honour_umask, read_json
-
-
-def write_json(path: Path, obj) -> None:
-    """Atomic JSON write (a crash leaves the old file or none, never half of one)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    with os.fdopen(fd, "w") as f:
-        json.dump(obj, f, indent=2)
-    honour_umask(tmp)
-    os.replace(tmp, path)
+from dyncatch.utils.files import read_json, write_json
 
 
 def cached(path: Path, compute: Callable[[], object]):

@@ -95,6 +95,23 @@ class StaticPolicy:
         return self.policy.step(carry, state, obs, key)
 
 
+def stack(trees: list) -> Any:
+    """Pytrees of one structure as one, each leaf stacked on a new leading axis."""
+    return jax.tree.map(lambda *xs: jnp.stack(xs), *trees)
+
+
+def stack_groups(pursuers: tuple) -> list[list[int]]:
+    """Indices of ``pursuers`` grouped by structure (tree, static fields, leaf shapes and
+    dtypes), first appearance first: each group of two or more runs as one stacked network.
+    Pursuers without leaves (the scripted ones) stay alone."""
+    groups: dict[Any, list[int]] = {}
+    for i, p in enumerate(pursuers):
+        leaves, treedef = jax.tree.flatten(p)
+        key = (treedef, tuple((jnp.shape(x), jnp.result_type(x)) for x in leaves)) if leaves else i
+        groups.setdefault(key, []).append(i)
+    return list(groups.values())
+
+
 def frozen_pursuer(policy) -> Any:
     """``policy`` as ``EvaderEnv.pursuer``: a pytree policy (a trained run's) as it is, any
     other seen through ``as_recurrent`` and held static."""
@@ -113,29 +130,55 @@ class EvaderEnv:
     pursuers: tuple
     """The frozen pursuers (``frozen_pursuer``), one drawn per episode."""
     reward: EvaderRewardCfg = EvaderRewardCfg()
+    pursuer_weights: tuple[float, ...] = struct.field(pytree_node=False, default=())
+    """The chance of each pursuer per episode (normalised; a 0 never plays); empty: uniform."""
 
     def reset(self, key: jax.Array) -> EvaderEnvState:
         ws = sim_env.reset(key, self.world)
         obs = sim_env.observe(ws, self.world)
         k = jax.random.fold_in(key, PURSUER_STREAM)
-        index = jax.random.randint(k, (), 0, len(self.pursuers))
+        if self.pursuer_weights:
+            logits = jnp.log(jnp.asarray(self.pursuer_weights, jnp.float32))
+            index = jax.random.categorical(k, logits).astype(jnp.int32)
+        else:
+            index = jax.random.randint(k, (), 0, len(self.pursuers))
         carries = tuple(p.init_carry(ws, obs) for p in self.pursuers)
         return EvaderEnvState(ws, obs, index, carries)
 
     def _pursue(self, state: EvaderEnvState, ws: EnvState, key: jax.Array):
-        """(every pursuer's carry, the command (3,)) of the episode's pursuer."""
+        """(every pursuer's carry, the command (3,)) of the episode's pursuer.
 
-        def branch(i):
-            def run(carries):
-                carry, command = self.pursuers[i].step(carries[i], ws, state.world_obs, key)
-                return carries[:i] + (carry,) + carries[i + 1 :], command
-
-            return run
-
+        Every pursuer is evaluated and the episode's one selected, which is what
+        ``lax.switch`` on a batched index becomes under the batch's ``vmap`` anyway; the
+        pursuers of one structure (the seeds of one method) run as one ``vmap``-ped network
+        over their stacked parameters (``stack_groups``). Measured with two trained ``rl``
+        seeds: 0.5 s an evader iteration against 5.2 s through ``lax.switch``. Only the
+        playing pursuer's carry moves."""
+        obs = state.world_obs
         if len(self.pursuers) == 1:
-            return branch(0)(state.pursuer_carries)
-        branches = [branch(i) for i in range(len(self.pursuers))]
-        return jax.lax.switch(state.pursuer_index, branches, state.pursuer_carries)
+            carry, command = self.pursuers[0].step(state.pursuer_carries[0], ws, obs, key)
+            return (carry,), command
+        n = len(self.pursuers)
+        carries, commands = [None] * n, [None] * n
+        for group in stack_groups(self.pursuers):
+            if len(group) == 1:
+                i = group[0]
+                carries[i], commands[i] = self.pursuers[i].step(
+                    state.pursuer_carries[i], ws, obs, key
+                )
+                continue
+            policies = stack([self.pursuers[i] for i in group])
+            old = stack([state.pursuer_carries[i] for i in group])
+            new, command = jax.vmap(lambda p, c: p.step(c, ws, obs, key))(policies, old)
+            for j, i in enumerate(group):
+                carries[i] = jax.tree.map(lambda x, j=j: x[j], new)
+                commands[i] = command[j]
+        index = state.pursuer_index
+        kept = tuple(
+            jax.tree.map(lambda a, b, i=i: jnp.where(index == i, a, b), carries[i], old_carry)
+            for i, old_carry in enumerate(state.pursuer_carries)
+        )
+        return kept, jnp.stack(commands)[index]
 
     def observe(self, state: EvaderEnvState) -> EvaderObs:
         return EvaderObs(evader_features(state.world.target, state.world.robot, self.world))
@@ -187,12 +230,26 @@ class EvaderEnv:
         return Spec((1,), jnp.full((1,), -TURN_LIMIT_RAD), jnp.full((1,), TURN_LIMIT_RAD))
 
 
-def evader_env(world: WorldCfg, pursuers, reward: EvaderRewardCfg | None = None) -> EvaderEnv:
+def evader_env(
+    world: WorldCfg,
+    pursuers,
+    reward: EvaderRewardCfg | None = None,
+    weights: tuple[float, ...] = (),
+) -> EvaderEnv:
     """An ``EvaderEnv`` in ``world`` (its behaviour set to ``commanded``) against a pursuer
-    or a list or tuple of them, one drawn per episode (policies built for that world:
-    ``policies.registry.BASELINES[name](world)``)."""
+    or a list or tuple of them, one drawn per episode with ``weights`` (one per pursuer,
+    normalised; empty: uniform). Pursuers are policies built for that world
+    (``policies.registry.BASELINES[name](world)``) or trained runs' (``rl.policy.load_run``)."""
     pursuers = tuple(pursuers) if isinstance(pursuers, list | tuple) else (pursuers,)
     if not pursuers:
         raise ValueError("give the evader at least one pursuer")
+    weights = tuple(float(w) for w in weights)
+    if weights and (len(weights) != len(pursuers) or min(weights) < 0 or not sum(weights) > 0):
+        raise ValueError(
+            f"pursuer weights {list(weights)}: give {len(pursuers)} non-negative weights "
+            "with a positive sum, or none (uniform)"
+        )
     frozen = tuple(frozen_pursuer(p) for p in pursuers)
-    return EvaderEnv(world.with_behavior("commanded"), frozen, reward or EvaderRewardCfg())
+    total = sum(weights)
+    weights = tuple(w / total for w in weights)
+    return EvaderEnv(world.with_behavior("commanded"), frozen, reward or EvaderRewardCfg(), weights)

@@ -20,13 +20,16 @@ from dyncatch.rl.config import PPOCfg, validate_ppo
 from dyncatch.rl.evader import EvaderRewardCfg, evader_env
 from dyncatch.rl.guard import check_finite
 from dyncatch.rl.logging import MetricLog
+from dyncatch.rl.policy import load_run
 from dyncatch.rl.train import TrainState, make_train
 from dyncatch.sim.behaviors.evader_net import EVADER_CHECKPOINT, EvaderNet, save_evader
 from dyncatch.sim.behaviors.learned import FEATURE_NAMES, TURN_LIMIT_RAD
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.validate import validate_world
+from dyncatch.utils.config_io import config_diff
 from dyncatch.utils.files import check_out_dir
 from dyncatch.utils.progress import NoProgress, Progress
+from dyncatch.utils.tree_io import TreeFileError
 
 EVADER_PPO = PPOCfg(num_envs=256, num_steps=32, hidden_sizes=(64, 64))
 """The evader's PPO: the pursuer's defaults but a small network (11 inputs, one output: two
@@ -44,8 +47,13 @@ class EvaderTrainCfg:
     """Train a target (the evader) with PPO against a frozen pursuer."""
 
     against: tuple[str, ...] = ("pursuit",)
-    """The frozen pursuers, scripted baselines of dyncatch.policies.registry.BASELINES
-    (pursuit, intercept); with several, each episode draws one uniformly."""
+    """The frozen pursuers: scripted baselines of dyncatch.policies.registry.BASELINES
+    (pursuit, intercept) or run folders of `dyncatch train` (rl, p_rl, sp_rl, gt_rl; a
+    predictor method loads the predictor its checkpoint names); with several, each episode
+    draws one (--against-weights)."""
+    against_weights: tuple[float, ...] = ()
+    """The chance of each pursuer of --against per episode, one weight each (normalised);
+    empty: uniform."""
     total_steps: int = 2_000_000
     """Environment steps to train for (rounded up to whole iterations)."""
     seed: int = 0
@@ -68,6 +76,7 @@ def evader_header(cfg: EvaderTrainCfg) -> dict:
     return {
         "features": list(FEATURE_NAMES),
         "against": list(cfg.against),
+        "against_weights": list(cfg.against_weights),
         "seed": cfg.seed,
         "total_steps": cfg.total_steps,
         "reward": dataclasses.asdict(cfg.reward),
@@ -94,10 +103,54 @@ def evader_net_of(ts: TrainState, header: dict) -> EvaderNet:
     )
 
 
+IGNORED_WORLD_PARTS = ("target", "reward")
+"""What may differ between a trained pursuer's world and the evader's: the target (the
+evader replaces it) and the pursuer's reward (not an input of its policy)."""
+
+
+def world_mismatch(pursuer_world: WorldCfg, world: WorldCfg) -> list[str]:
+    """Dotted fields, outside ``IGNORED_WORLD_PARTS``, where a pursuer's training world
+    differs from the evader's (its observations would then mean something else)."""
+    diff = config_diff(pursuer_world, world)
+    return [k for k in diff if k.split(".")[0] not in IGNORED_WORLD_PARTS]
+
+
+def load_pursuer(name: str, world: WorldCfg):
+    """A pursuer of ``--against``: a baseline built for ``world``, or a trained run folder
+    (its frozen mean-action policy), refused if its world differs from ``world``."""
+    if name in BASELINES:
+        return BASELINES[name](world)
+    if not Path(name).exists():
+        raise ValueError(
+            f"--against {name!r}: not a baseline ({', '.join(BASELINES)}) nor a run folder "
+            "of `dyncatch train`"
+        )
+    try:
+        run = load_run(name)
+    except (TreeFileError, ValueError, FileNotFoundError) as err:
+        raise ValueError(f"--against {name!r}: {err}") from None
+    diff = world_mismatch(run.world, world)
+    if diff:
+        raise ValueError(
+            f"--against {name!r} was trained in another world ({', '.join(diff[:4])} differ); "
+            "give the evader the same --world.* flags as that run"
+        )
+    return run.policy
+
+
 def _validate(cfg: EvaderTrainCfg) -> None:
-    bad = [name for name in cfg.against if name not in BASELINES]
-    if bad or not cfg.against:
-        raise ValueError(f"--against {bad or '()'}: choose from {', '.join(BASELINES)}")
+    if not cfg.against:
+        raise ValueError(f"--against is empty: name baselines ({', '.join(BASELINES)}) or runs")
+    bad = [n for n in cfg.against if n not in BASELINES and not Path(n).exists()]
+    if bad:
+        raise ValueError(f"--against {bad}: choose from {', '.join(BASELINES)} or give run folders")
+    if cfg.against_weights and len(cfg.against_weights) != len(cfg.against):
+        raise ValueError(
+            f"--against-weights has {len(cfg.against_weights)} values for "
+            f"{len(cfg.against)} pursuers; give one per --against or none"
+        )
+    if cfg.against_weights and (min(cfg.against_weights) < 0 or sum(cfg.against_weights) <= 0):
+        raise ValueError("--against-weights must be non-negative with a positive sum")
     if cfg.total_steps < 1 or cfg.checkpoint_every < 1:
         raise ValueError("--total-steps and --checkpoint-every must be >= 1")
     validate_ppo(cfg.ppo)
@@ -112,8 +165,8 @@ def train_evader(cfg: EvaderTrainCfg, progress: Progress | None = None) -> dict[
     path = cfg.out / EVADER_CHECKPOINT
     if path.exists():
         raise ValueError(f"{path} exists: choose another --out (evader runs do not resume)")
-    pursuers = [BASELINES[name](cfg.world) for name in cfg.against]
-    env = evader_env(cfg.world, pursuers, cfg.reward)
+    pursuers = [load_pursuer(name, cfg.world) for name in cfg.against]
+    env = evader_env(cfg.world, pursuers, cfg.reward, cfg.against_weights)
     init, iterate, _ = make_train(env, cfg.ppo)
     iterate = jax.jit(iterate)
     ts = jax.jit(init)(jax.random.key(cfg.seed))

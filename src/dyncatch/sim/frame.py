@@ -32,13 +32,22 @@ def _shift_pose(pose: jax.Array, d: jax.Array) -> jax.Array:
 
 
 def shift_xy_fields(tree, d: jax.Array):
-    """A dataclass pytree with every ``*xy_m`` field moved by -d (others kept)."""
+    """A behaviour state with every ``*xy_m`` field moved by -d, in nested dataclasses and
+    tuples too (a ``league`` target holds its members' states), others kept."""
+    if isinstance(tree, tuple):
+        return tuple(shift_xy_fields(t, d) for t in tree)
     if not dataclasses.is_dataclass(tree):
         return tree
     moved = {
-        f.name: getattr(tree, f.name) - d
+        f.name: (
+            getattr(tree, f.name) - d
+            if f.name.endswith("xy_m")
+            else shift_xy_fields(getattr(tree, f.name), d)
+        )
         for f in dataclasses.fields(tree)
         if f.name.endswith("xy_m")
+        or isinstance(getattr(tree, f.name), tuple)
+        or dataclasses.is_dataclass(getattr(tree, f.name))
     }
     return tree.replace(**moved) if moved else tree
 

@@ -37,6 +37,20 @@ def check_out_dir(out: str | os.PathLike, flag: str = "--out") -> Path:
     return out
 
 
+def write_json(path: str | os.PathLike, obj) -> None:
+    """Atomic JSON write (a crash leaves the old file or none, never half of one)."""
+    import json
+    import tempfile
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
+    with os.fdopen(fd, "w") as f:
+        json.dump(obj, f, indent=2)
+    honour_umask(tmp)
+    os.replace(tmp, path)
+
+
 def read_json(path: str | os.PathLike, fix: str = "delete it to recompute it"):
     """The JSON value in ``path``, or ValueError naming the file and ``fix`` (a damaged or
     truncated file, or one that is not text)."""

@@ -15,6 +15,7 @@ from dyncatch.sim.behaviors.base import BEHAVIORS, Behavior, BehaviorName, NoSta
 from dyncatch.sim.behaviors.bounce import BOUNCE
 from dyncatch.sim.behaviors.circle import CIRCLE, CircleCfg, CircleState
 from dyncatch.sim.behaviors.compose import compose_target_cfg, missing_fields
+from dyncatch.sim.behaviors.league import LEAGUE, LeagueCfg, LeagueState
 from dyncatch.sim.behaviors.learned import COMMANDED, LEARNED, EvaderState, LearnedCfg
 from dyncatch.sim.behaviors.random_reactive import (
     RANDOM_REACTIVE,
@@ -31,6 +32,7 @@ BEHAVIORS.update(
         "random_reactive": RANDOM_REACTIVE,
         "learned": LEARNED,
         "commanded": COMMANDED,
+        "league": LEAGUE,
     }
 )
 
@@ -103,6 +105,8 @@ __all__ = [
     "CircleState",
     "EvaderState",
     "GammaState",
+    "LeagueCfg",
+    "LeagueState",
     "LearnedCfg",
     "NoState",
     "RandomReactiveCfg",

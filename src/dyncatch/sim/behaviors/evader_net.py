@@ -155,7 +155,10 @@ def _load_cached(path: str, mtime_ns: int, size: int, feature_names: tuple[str, 
         f32(dims[0]),
     )
     try:
-        tree, _ = load_tree(path, template)
+        # A first load may happen while a step is traced (a world not validated first):
+        # the arrays are constants, never tracers.
+        with jax.ensure_compile_time_eval():
+            tree, _ = load_tree(path, template)
     except TreeFileError as err:
         raise _bad(path, f"damaged ({err})") from None
     actor = tree["actor"]

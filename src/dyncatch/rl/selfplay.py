@@ -1,0 +1,197 @@
+"""Self-play rounds: alternate best responses between a learned evader and the pursuers.
+
+Round k (0-based):
+
+1. ``evader``: an evader trained (``rl.evader_train``) against the frozen pursuers of round
+   k-1, every method and seed drawn with equal weight (round 0: ``first_pursuers``).
+2. ``pursuer/{method}``: each method's seeds trained (``rl.seeds``, one ``vmap``-ped group)
+   in the ``league`` world: each episode a member of evaders 0..k plus the scripted
+   ``league_behaviors`` (``sim.behaviors.league``), so a pursuer does not overfit the last
+   evader.
+3. ``exploit/{method}/seed{s}``: a fresh best-response evader trained against that one
+   pursuer (skipped with ``exploit_steps`` 0), and ``eval/{method}/seed{s}``: the pursuer's
+   success against the round's league and against its best response
+   (``rl.exploitability``).
+
+Layout under ``out``: ``selfplay.json`` (the config; another is refused, naming the field),
+``round{k}/{evader,pursuer/{method},exploit/{method}/seed{s},eval/{method}/seed{s}}/``
+(each finished by ``done.json``, ``rl.stages``) and ``summary.json`` / ``summary.md``.
+Adding rounds to a finished study (a larger ``--rounds``) reuses every finished stage.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+from dyncatch.evaluation.intervals import CONFIDENCE
+from dyncatch.rl.evader_train import EvaderTrainCfg, train_evader
+from dyncatch.rl.exploitability import evaluate_pursuer, summary_rows, write_summary
+from dyncatch.rl.methods import get_method
+from dyncatch.rl.runner import TrainRunCfg, seed_cfgs
+from dyncatch.rl.seeds import make_runner
+from dyncatch.rl.selfplay_cfg import (
+    PURSUER_LOGGERS,
+    RESUMABLE_FIELDS,
+    SelfPlayCfg,
+    league_world,
+    validate_selfplay,
+)
+from dyncatch.rl.stages import Stage, diff_message, run_stage
+from dyncatch.sim.behaviors.evader_net import EVADER_CHECKPOINT
+from dyncatch.sim.config import WorldCfg
+from dyncatch.utils.config_io import to_json
+from dyncatch.utils.files import read_json, write_json
+from dyncatch.utils.progress import NoProgress, Progress
+
+
+def study_spec(cfg: SelfPlayCfg) -> dict:
+    """What the study's stages share: the config less ``RESUMABLE_FIELDS``."""
+    d = to_json(cfg)
+    return {k: v for k, v in d.items() if k not in RESUMABLE_FIELDS}
+
+
+def check_study(cfg: SelfPlayCfg) -> None:
+    """Record the config in ``out/selfplay.json``; refuse a folder made with another."""
+    path = cfg.out / "selfplay.json"
+    want = study_spec(cfg)
+    if path.exists():
+        msg = diff_message(
+            read_json(path, "delete it, or choose another --out"),
+            want,
+            str(cfg.out),
+            "re-run with the same flags to resume, or choose another --out",
+        )
+        if msg:
+            raise ValueError(msg)
+    else:
+        write_json(path, want)
+
+
+def evader_path(out: Path, k: int) -> Path:
+    return out / f"round{k}" / "evader"
+
+
+def pursuer_runs(cfg: SelfPlayCfg, k: int, method: str) -> list[TrainRunCfg]:
+    """The one-seed runs of ``method`` in round ``k`` (their ``out`` are the run folders)."""
+    return seed_cfgs(pursuer_cfg(cfg, k, method))
+
+
+def pursuer_cfg(cfg: SelfPlayCfg, k: int, method: str) -> TrainRunCfg:
+    evaders = tuple(str(evader_path(cfg.out, j) / EVADER_CHECKPOINT) for j in range(k + 1))
+    m = get_method(method)
+    return TrainRunCfg(
+        method=method,
+        total_steps=cfg.pursuer_steps,
+        seed=cfg.seed,
+        seeds=cfg.seeds,
+        out=cfg.out / f"round{k}" / "pursuer" / method,
+        predictor=cfg.predictor if m.predictor_kind is not None else None,
+        eval_every=cfg.pursuer_eval_every,
+        logger=PURSUER_LOGGERS,
+        ppo=cfg.pursuer_ppo,
+        world=league_world(cfg, evaders),
+    )
+
+
+def evader_cfg(cfg: SelfPlayCfg, k: int) -> EvaderTrainCfg:
+    if k == 0:
+        against = tuple(cfg.first_pursuers)
+    else:
+        against = tuple(str(run.out) for m in cfg.methods for run in pursuer_runs(cfg, k - 1, m))
+    return EvaderTrainCfg(
+        against=against,
+        total_steps=cfg.evader_steps,
+        seed=cfg.seed + k,
+        out=evader_path(cfg.out, k),
+        reward=cfg.reward,
+        ppo=cfg.evader_ppo,
+        world=cfg.world,
+    )
+
+
+def exploit_cfg(cfg: SelfPlayCfg, run: TrainRunCfg, k: int) -> EvaderTrainCfg:
+    """The best-response evader of one pursuer run."""
+    return dataclasses.replace(
+        evader_cfg(cfg, 0),
+        against=(str(run.out),),
+        total_steps=cfg.exploit_steps,
+        seed=run.seed,
+        out=cfg.out / f"round{k}" / "exploit" / run.method / f"seed{run.seed}",
+    )
+
+
+class SelfPlayRunner:
+    """``SelfPlayRunner(cfg).learn(progress)`` runs (or resumes) every round and writes the
+    summary; each stage is a ``rl.stages.Stage``."""
+
+    def __init__(self, cfg: SelfPlayCfg):
+        validate_selfplay(cfg)
+        self.cfg = cfg
+
+    def round_stages(self, k: int) -> list[Stage]:
+        """Round ``k``'s stages in the order they run."""
+        cfg = self.cfg
+        ev = evader_cfg(cfg, k)
+        stages = [Stage(f"round{k}/evader", ev.out, to_json(ev), lambda p: train_evader(ev, p))]
+        for method in cfg.methods:
+            pc = pursuer_cfg(cfg, k, method)
+            stages.append(Stage(f"round{k}/pursuer/{method}", pc.out, to_json(pc), _trainer(pc)))
+        if cfg.exploit_steps == 0:
+            return stages
+        league = pursuer_cfg(cfg, k, cfg.methods[0]).world
+        for method in cfg.methods:
+            for run in pursuer_runs(cfg, k, method):
+                stages += self.exploit_stages(k, run, league)
+        return stages
+
+    def exploit_stages(self, k: int, run: TrainRunCfg, league: WorldCfg) -> list[Stage]:
+        """One pursuer run's best-response evader and its evaluation against the league
+        and that evader."""
+        cfg = self.cfg
+        br = exploit_cfg(cfg, run, k)
+        name = f"{run.method}/seed{run.seed}"
+        spec = {
+            "run": str(run.out),
+            "best_response": str(br.out),
+            "league": to_json(league),
+            "speeds_mps": list(cfg.eval_speeds_mps),
+            "episodes": cfg.eval_episodes,
+            "eval_seed": cfg.eval_seed,
+        }
+
+        def evaluate(progress: Progress | None) -> dict:
+            del progress
+            return evaluate_pursuer(
+                run.out, league, br.out, cfg.eval_speeds_mps, cfg.eval_episodes, cfg.eval_seed
+            )
+
+        return [
+            Stage(f"round{k}/exploit/{name}", br.out, to_json(br), lambda p: train_evader(br, p)),
+            Stage(f"round{k}/eval/{name}", cfg.out / f"round{k}" / "eval" / name, spec, evaluate),
+        ]
+
+    def learn(self, progress: Progress | None = None) -> list[dict]:
+        """Every round's stages (finished ones skipped); returns the summary rows."""
+        cfg = self.cfg
+        check_study(cfg)
+        bar = progress or NoProgress()
+        records: list[tuple[int, Stage, dict]] = []
+        for k in range(cfg.rounds):
+            for stage in self.round_stages(k):
+                bar.task(stage.name, 1)(0, "running")
+                done = run_stage(stage, progress)
+                bar.task(stage.name, 1)(1, "skipped (done)" if done["skipped"] else "done")
+                records.append((k, stage, done))
+        rows = summary_rows(records, cfg.methods, CONFIDENCE)
+        write_summary(cfg.out, rows)
+        return rows
+
+
+def _trainer(pc: TrainRunCfg):
+    def make(progress: Progress | None = None) -> dict:
+        out = make_runner(pc).learn(progress)
+        per_seed = [out] if isinstance(out, dict) else out
+        return {"success_rate": [float(m.get("success_rate", float("nan"))) for m in per_seed]}
+
+    return make

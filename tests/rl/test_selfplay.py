@@ -1,0 +1,199 @@
+"""Self-play rounds: two tiny rounds end to end, a resume that trains nothing, an
+interrupted stage made again, more rounds reusing the finished ones, a changed config
+refused naming the flag, and the exploitability row by hand."""
+
+import dataclasses
+import json
+import math
+
+import numpy as np
+import pytest
+
+from dyncatch.cli.main import main
+from dyncatch.evaluation.intervals import t_quantile
+from dyncatch.rl import selfplay
+from dyncatch.rl.config import PPOCfg
+from dyncatch.rl.exploitability import exploitability
+from dyncatch.rl.policy import CHECKPOINT
+from dyncatch.rl.selfplay import SelfPlayRunner
+from dyncatch.rl.selfplay_cfg import SelfPlayCfg
+from dyncatch.rl.stages import Stage, run_stage
+from dyncatch.sim.behaviors.evader_net import EVADER_CHECKPOINT
+from dyncatch.utils.tree_io import read_header
+
+TINY = PPOCfg(num_envs=16, num_steps=8, num_minibatches=2, update_epochs=1, hidden_sizes=(16,))
+
+
+def tiny(out, **fields) -> SelfPlayCfg:
+    """Two rounds of one-iteration trainings, 2 pursuer seeds, 8 episodes at one speed."""
+    cfg = SelfPlayCfg(
+        out=out,
+        rounds=2,
+        methods=("rl",),
+        seeds=2,
+        evader_steps=TINY.batch_size,
+        pursuer_steps=TINY.batch_size,
+        exploit_steps=TINY.batch_size,
+        eval_speeds_mps=(1.6,),
+        eval_episodes=8,
+        evader_ppo=TINY,
+        pursuer_ppo=TINY,
+    )
+    return dataclasses.replace(cfg, **fields)
+
+
+@pytest.fixture(scope="module")
+def study(tmp_path_factory):
+    cfg = tiny(tmp_path_factory.mktemp("selfplay") / "study")
+    rows = SelfPlayRunner(cfg).learn()
+    return cfg, rows
+
+
+def _no_training(monkeypatch):
+    def refuse(cfg, *args):
+        raise RuntimeError(f"trained {cfg.out}")
+
+    monkeypatch.setattr(selfplay, "train_evader", refuse)
+    monkeypatch.setattr(selfplay, "make_runner", refuse)
+
+
+def _checkpoints(out):
+    return {p: p.stat().st_mtime_ns for p in out.rglob("*.safetensors")}
+
+
+class TestTwoRounds:
+    def test_every_stage_is_made(self, study):
+        cfg, rows = study
+        out = cfg.out
+        for k in (0, 1):
+            assert (out / f"round{k}" / "evader" / EVADER_CHECKPOINT).exists()
+            for s in (0, 1):
+                assert (out / f"round{k}" / "pursuer" / "rl" / f"seed{s}" / CHECKPOINT).exists()
+                assert (
+                    out / f"round{k}" / "exploit" / "rl" / f"seed{s}" / EVADER_CHECKPOINT
+                ).exists()
+                assert (out / f"round{k}" / "eval" / "rl" / f"seed{s}" / "done.json").exists()
+        assert json.loads((out / "summary.json").read_text()) == rows
+        assert "| 1 | rl | 2 |" in (out / "summary.md").read_text()
+
+    def test_round_k_plays_the_last_pursuers_and_the_league_of_evaders_0_to_k(self, study):
+        cfg, _ = study
+        out = cfg.out
+        e0 = read_header(out / "round0" / "evader" / EVADER_CHECKPOINT)
+        e1 = read_header(out / "round1" / "evader" / EVADER_CHECKPOINT)
+        assert e0["against"] == ["pursuit"]
+        assert e1["against"] == [
+            str(out / "round0" / "pursuer" / "rl" / f"seed{s}") for s in (0, 1)
+        ]
+        p1 = read_header(out / "round1" / "pursuer" / "rl" / "seed1" / CHECKPOINT)
+        target = p1["world"]["target"]
+        assert target["behavior"] == "league" and target["league_behaviors"] == ["reactive"]
+        assert target["league_evaders"] == [
+            str(out / f"round{k}" / "evader" / EVADER_CHECKPOINT) for k in (0, 1)
+        ]
+        br = read_header(out / "round1" / "exploit" / "rl" / "seed1" / EVADER_CHECKPOINT)
+        assert br["against"] == [str(out / "round1" / "pursuer" / "rl" / "seed1")]
+
+    def test_rows_are_the_seeds_means(self, study):
+        cfg, rows = study
+        assert [(r["round"], r["method"], r["seeds"]) for r in rows] == [(0, "rl", 2), (1, "rl", 2)]
+        for r in rows:
+            evals = [
+                json.loads(
+                    (
+                        cfg.out / f"round{r['round']}" / "eval" / "rl" / f"seed{s}" / "done.json"
+                    ).read_text()
+                )["result"]
+                for s in (0, 1)
+            ]
+            league = [e["league_success"] for e in evals]
+            br = [e["best_response_success"] for e in evals]
+            assert r["league"] == pytest.approx(np.mean(league))
+            assert r["exploitability"] == pytest.approx(np.mean(league) - np.mean(br))
+            assert all(0.0 <= x <= 1.0 for x in league + br)
+            assert r["round_time_s"] > 0
+
+
+class TestResume:
+    def test_a_second_run_trains_nothing(self, study, monkeypatch):
+        cfg, rows = study
+        before = _checkpoints(cfg.out)
+        _no_training(monkeypatch)
+        assert SelfPlayRunner(cfg).learn() == rows
+        assert _checkpoints(cfg.out) == before
+
+    def test_an_interrupted_stage_is_made_again(self, study, monkeypatch):
+        cfg, rows = study
+        stage = cfg.out / "round1" / "eval" / "rl" / "seed1"
+        (stage / "done.json").unlink()
+        (stage / "partial.tmp").write_text("left by a crash")
+        _no_training(monkeypatch)  # the evaluation is made again, nothing is trained
+        again = SelfPlayRunner(cfg).learn()
+        assert (stage / "done.json").exists() and not (stage / "partial.tmp").exists()
+        for a, b in zip(again, rows, strict=True):
+            assert a["league"] == b["league"] and a["best_response"] == b["best_response"]
+
+    def test_more_rounds_reuse_the_finished_ones(self, study, monkeypatch):
+        cfg, _ = study
+        _no_training(monkeypatch)
+        with pytest.raises(RuntimeError, match="round2/evader"):
+            SelfPlayRunner(dataclasses.replace(cfg, rounds=3)).learn()
+
+    def test_a_changed_config_is_refused_naming_the_flag(self, study):
+        cfg, _ = study
+        with pytest.raises(ValueError, match=r"--pursuer-steps \(128 -> 256\)"):
+            SelfPlayRunner(dataclasses.replace(cfg, pursuer_steps=256)).learn()
+        other = dataclasses.replace(cfg, evader_ppo=TINY.replace(learning_rate=3e-3))
+        with pytest.raises(ValueError, match=r"--evader-ppo\.learning-rate"):
+            SelfPlayRunner(other).learn()
+
+    def test_a_stage_made_from_another_spec_is_refused(self, tmp_path):
+        made = Stage("s", tmp_path / "s", {"steps": 1}, lambda p: {"ok": 1})
+        assert run_stage(made)["skipped"] is False
+        assert run_stage(made)["skipped"] is True
+        other = dataclasses.replace(made, spec={"steps": 2})
+        with pytest.raises(ValueError, match=r"stage s .*--steps \(1 -> 2\)"):
+            run_stage(other)
+
+
+class TestBadInput:
+    @pytest.mark.parametrize(
+        ("fields", "words"),
+        [
+            ({"rounds": 0}, "--rounds"),
+            ({"seeds": 0}, "--seeds"),
+            ({"methods": ("sp_rl",)}, "--predictor"),
+            ({"methods": ("sp_fp",)}, "'gt_rl' instead"),
+            ({"methods": ("rl", "rl")}, "--methods"),
+            ({"exploit_steps": -1}, "--exploit-steps"),
+            ({"first_pursuers": ("nobody",)}, "--first-pursuers"),
+            ({"league_behaviors": ("bounce",)}, "league_behaviors"),
+            ({"league_scripted_share": 2.0}, "league_scripted_share"),
+        ],
+    )
+    def test_names_the_flag(self, tmp_path, fields, words):
+        with pytest.raises(ValueError, match=words):
+            SelfPlayRunner(tiny(tmp_path / "x", **fields))
+        assert not (tmp_path / "x").exists()
+
+    def test_the_cli_says_it(self, tmp_path, capsys):
+        assert main(["evader", "selfplay", "--out", str(tmp_path / "x"), "--rounds", "0"]) == 2
+        assert "--rounds 0" in capsys.readouterr().err
+
+
+def test_exploitability_by_hand():
+    # Per seed: league 0.5, 0.7; best response 0.3, 0.3 -> gains 0.2, 0.4: mean 0.3, sd
+    # 0.1414, se 0.1, t(0.975, 1 df) = 12.706: the interval 0.3 +- 1.2706.
+    row = exploitability([0.5, 0.7], [0.3, 0.3])
+    assert row["seeds"] == 2
+    assert row["league"] == pytest.approx(0.6) and row["best_response"] == pytest.approx(0.3)
+    assert row["exploitability"] == pytest.approx(0.3)
+    half = t_quantile(1) * 0.1
+    assert half == pytest.approx(1.2706, abs=1e-4)
+    assert row["exploitability_ci"] == pytest.approx([0.3 - half, 0.3 + half])
+    assert row["best_response_ci"] == pytest.approx([0.3, 0.3])  # no spread
+    one = exploitability([0.5], [0.25])
+    assert one["exploitability"] == 0.25 and one["exploitability_ci"] is None
+    with pytest.raises(ValueError, match="one value per seed"):
+        exploitability([0.5, 0.6], [0.1])
+    assert math.isfinite(row["league_ci"][0])
