@@ -74,6 +74,12 @@ def test_the_constants_give_back_the_measurements_they_come_from():
     # The quick run's Table I jobs with a compilation: 7-9 s.
     assert 7.0 <= 6 * cell(200) + e.EST_EVAL_COMPILE_S <= 9.0
 
+    # A training run of the quick profile (0.5 M samples at 128-128-64): 21-24 s; a group
+    # of the full run (3 seeds x 4 M at 256-256-128): 551-582 s, within 6 %.
+    quick, full = PROFILES["quick"], dataclasses.replace(PROFILES["full"], seeds=3)
+    assert 21 <= 0.5e6 / e.samples_per_s(quick) + e.EST_TRAIN_COMPILE_S <= 24
+    assert 0.94 * 551 <= 12e6 / e.samples_per_s(full) + e.EST_TRAIN_COMPILE_S <= 582
+
     # The quick run's Fig. 9 jobs (100 episodes of 40 s): sp_rl plain and blended 10 s, a
     # baseline blended 8 s.
     def scene(blend: bool, episodes: int) -> float:
