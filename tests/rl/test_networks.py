@@ -3,6 +3,7 @@
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 import dyncatch.rl.networks as networks
 from dyncatch.rl.config import PPOCfg
@@ -73,6 +74,10 @@ def test_ppo_gradient_with_the_fast_elu_is_bit_identical(monkeypatch):
         np.testing.assert_array_equal(a, b)
 
 
+# Two training programs compiled (about 19 s on 2 idle cores, the suite's sixth slowest):
+# the PPO loss and gradient with the fast ELU are checked bit for bit above, and every
+# training test trains with it.
+@pytest.mark.extended
 def test_training_with_the_fast_elu_matches_jax_nn_elu(monkeypatch):
     """Parameters after 2 PPO iterations with ``jax.nn.elu`` in the networks and with
     ``networks.elu``. With the library's XLA settings they are equal bit for bit (measured

@@ -10,6 +10,9 @@ from dyncatch.sim.config import WorldCfg
 
 CFG = WorldCfg()
 N, T = 4, 40
+# One jitted function for the module: a new jit(vmap(...)) per call would compile the same
+# program again for each trajectory.
+BATCHED_STEP = jax.jit(jax.vmap(env.step, in_axes=(0, 0, None)))
 
 
 def _actions():
@@ -18,10 +21,9 @@ def _actions():
 
 def _batched(key):
     state = vec.batch_reset(key, JaxCatchEnv(CFG), N)
-    step = jax.jit(jax.vmap(env.step, in_axes=(0, 0, None)))
     out = []
     for a in _actions():
-        state, obs, reward, done, info = step(state, a, CFG)
+        state, obs, reward, done, info = BATCHED_STEP(state, a, CFG)
         out.append((obs.flat, reward))
     return out
 

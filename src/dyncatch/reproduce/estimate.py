@@ -1,14 +1,22 @@
 """A rough wall-time estimate of each stage on 2 cores, printed before a reproduction starts.
 
-Measured on the idle 2-core machine. The full run of 2026-12-02 (docs/results.md): a group
-of 3 seeds x 4 M steps took 551-582 s with its compilation and periodic evaluations
-(training is bound by PPO's update, not the simulator); Table I's 6 speeds x 1000 episodes
-about 20 s per policy; a video 7 s. Its uncontended stages sum to about 132 min; these
-constants give 139. A (method, behaviour)'s seeds compile once whether grouped or one by
-one (a process reuses the compiled iteration: docs/scaling.md). An evaluation compiles once
-per (method or baseline, scene, behaviour): seeds, speeds and the Fig. 9 blend flag are
-arguments (``benchmarks/eval_compiles.py``); the formulas count those compilations, and the
-constants are re-measured when the full reproduction is re-run.
+A stage's time is its work at a measured rate plus its compilations, counted from the plan:
+a training group compiles its iteration and periodic evaluation once (a (method,
+behaviour)'s seeds compile once, grouped or one by one: docs/scaling.md); an evaluation
+compiles one program per (method or baseline, scene, behaviour), seeds, speeds and the
+Fig. 9 blend flag being arguments (``benchmarks/eval_compiles.py``). Each constant below
+names the measurement it comes from, all on the idle 2-core Xeon:
+
+* the quick profile from an empty compilation cache (a fresh clone's ``make demo``),
+  docs/performance.md "A reproduction's stages": predictors 10 s, Table II 32 s, 4 training
+  runs 91 s (21-24 s each), 7 Table I jobs 55 s (7-9 s each, 4 s for ``sp_rl``'s, whose
+  program ``sp_fp``'s job had compiled), a video 9 s, 3 Fig. 9 jobs 26 s, its video 7 s:
+  230 s; ``benchmarks/reproduce_stages.py`` splits each stage into compilation and work;
+* the full run of 2026-12-02 (docs/results.md: 3 seeds, 1000 episodes a Table I cell, 500
+  a Fig. 9 cell, evaluation then compiling once per policy and speed): a group of 3 seeds x
+  4 M steps 551-582 s, Table I 12.2 min, Fig. 9 37.3 min, videos 0.5 min;
+* ``dyncatch bench ppo`` for the training rate, and the 13 s / 18 s per 1000 Fig. 9
+  episodes of ``Plan.fig9_episodes``.
 """
 
 from __future__ import annotations
@@ -33,15 +41,46 @@ EST_TRAIN_OVERHEAD = 1.2
 """A training run's time over its PPO iterations' (periodic evaluations, logs,
 checkpoints): the full run's 551-582 s per 3-seed group of 4 M steps at 256-256-128, about
 22,000 samples/s against the benchmark's 27,000."""
-EST_COMPILE_S = 20.0  # one compilation: a training group's iteration, a Fig. 9 row's rollout
-EST_EVAL_S_PER_1000_EPISODES = 3.0
+EST_TRAIN_COMPILE_S = 15.0
+"""One training group's compilations (its iteration and its periodic evaluation) and
+start: the quick run's training runs took 21-24 s, of which 7.9 s are 0.5 M samples at the
+two lines above (128-128-64: 63,700 samples/s with the overhead)."""
+EST_EVAL_COMPILE_S = 5.0
+"""One open-plane evaluation program (Table I, Fig. 6, transfer): the quick run's Table I
+jobs with a compilation took 7-9 s, ``sp_rl``'s, whose program was compiled, 4 s."""
+EST_EVAL_S_PER_CELL = 0.45
+"""A cell's fixed cost (its policy and predictor loaded, the rollout dispatched, the JSON
+written). With the next constant it solves two measurements: the quick run's ``sp_rl``
+Table I job, 6 cells x 200 episodes without a compilation, 4 s (6 x 0.45 + 1.2 x 1.08),
+and the full run's Table I, 204 cells x 1000 episodes and 84 compilations, 732 s
+(204 x (0.45 + 1.08) + 84 x 5)."""
+EST_EVAL_S_PER_1000_EPISODES = 1.08
+"""Seconds per 1000 open-plane episodes of 20 s (the line above)."""
+EST_SCENE_S_PER_1000_EPISODES = {False: 13.0, True: 18.0}
+"""Seconds per 1000 Fig. 9 episodes of 40 s in a room, plain and with the blend
+(``Plan.fig9_episodes``, measured in room_8)."""
+EST_SCENE_COMPILE_S = 6.0
+"""One Fig. 9 program (a scene's obstacles and scan, the blend a flag): the quick run's
+Fig. 9 jobs, 8-10 s each, less their cells at the constants above (5.8-6.0 s); the full
+run's Fig. 9, 192 cells and 96 compilations (one per row, scene and behaviour then) in
+2,190 s besides its 6 videos, gives 5.8 s."""
 EST_PREDICTOR_S_PER_M_STEPS = 8.0
-EST_VIDEO_S = 10.0
+"""Seconds per million interaction steps a predictor trains on (its data collected, its
+updates): Table II of the quick run, 2 kinds x 4 behaviours x 0.5 M steps, took 32 s."""
+EST_PREDICTOR_COMPILE_S = 2.0
+"""A behaviour's predictors' compilations and start (collection, training and held-out
+evaluation programs): the quick run's two predictors took 10 s, 8 s of them their 1 M
+steps at the line above. The full run's predictors and Table II took 228 s together,
+196 s at these two constants (-14 %, half a minute of its 2 h)."""
+EST_VIDEO_S = 8.0
+"""One GIF: the quick run's 9 s (``sp_rl`` on reactive) and 7 s (room_8); the full run's 4
+in 0.5 min."""
 
 
 def predictors_s(plan: Plan) -> float:
-    steps = len(predictor_kinds(plan.method_names)) * len(plan.behaviors) * plan.predictor_steps
-    return steps / 1e6 * EST_PREDICTOR_S_PER_M_STEPS + 30 * len(plan.behaviors)
+    pairs = len(predictor_kinds(plan.method_names)) * len(plan.behaviors)
+    steps = pairs * plan.predictor_steps
+    return steps / 1e6 * EST_PREDICTOR_S_PER_M_STEPS + EST_PREDICTOR_COMPILE_S * len(plan.behaviors)
 
 
 def table_ii_s(plan: Plan) -> float:
@@ -57,7 +96,9 @@ def samples_per_s(plan: Plan) -> float:
 
 def training_s(plan: Plan) -> float:
     groups = plan.training_runs // plan.seeds
-    return plan.training_runs * plan.train_steps / samples_per_s(plan) + groups * EST_COMPILE_S
+    return (
+        plan.training_runs * plan.train_steps / samples_per_s(plan) + groups * EST_TRAIN_COMPILE_S
+    )
 
 
 def _policies(plan: Plan) -> int:
@@ -71,23 +112,23 @@ def _programs(plan: Plan) -> int:
 
 
 def _per_cell_s(plan: Plan) -> float:
-    return plan.episodes / 1000 * EST_EVAL_S_PER_1000_EPISODES
+    return EST_EVAL_S_PER_CELL + plan.episodes / 1000 * EST_EVAL_S_PER_1000_EPISODES
 
 
 def table_i_s(plan: Plan) -> float:
     cells = _policies(plan) * len(plan.speeds_mps) * len(plan.table_i_rows)
-    return cells * _per_cell_s(plan) + _programs(plan) * len(plan.table_i_rows) * EST_COMPILE_S
+    return cells * _per_cell_s(plan) + _programs(plan) * len(plan.table_i_rows) * EST_EVAL_COMPILE_S
 
 
 def fig6_s(plan: Plan) -> float:
     columns = len(fig6_evaluated_columns(plan))
-    return (_policies(plan) * _per_cell_s(plan) + _programs(plan) * EST_COMPILE_S) * columns
+    return (_policies(plan) * _per_cell_s(plan) + _programs(plan) * EST_EVAL_COMPILE_S) * columns
 
 
 def transfer_s(plan: Plan) -> float:
     # Only the trained methods' policies (no baselines), one speed, per transfer column.
     cells = len(plan.method_names) * plan.seeds * _per_cell_s(plan)
-    return (cells + len(plan.method_names) * EST_COMPILE_S) * len(plan.transfer_behaviors)
+    return (cells + len(plan.method_names) * EST_EVAL_COMPILE_S) * len(plan.transfer_behaviors)
 
 
 def videos_s(plan: Plan) -> float:
@@ -99,12 +140,14 @@ def fig9_s(plan: Plan) -> float:
     # policy is an argument) and its rows with and without the blend (a traced flag) share it.
     rows = rows_of(plan)
     scenes_behaviors = len(plan.fig9_scenes) * len(plan.fig9_columns)
-    cells = sum(plan.seeds if r.learned else 1 for r in rows) * scenes_behaviors
-    compiles = len({r.policy for r in rows}) * scenes_behaviors
-    # A 40 s episode is 2 of the 20 s ones the evaluation constant was measured on.
-    episode_s = (plan.fig9_duration_s or 40.0) / 20.0
-    per_cell = plan.fig9_episodes / 1000 * EST_EVAL_S_PER_1000_EPISODES * episode_s
-    return cells * per_cell + compiles * EST_COMPILE_S
+    episodes = plan.fig9_episodes / 1000 * (plan.fig9_duration_s or 40.0) / 40.0
+    per_group = sum(
+        (plan.seeds if r.learned else 1)
+        * (EST_EVAL_S_PER_CELL + episodes * EST_SCENE_S_PER_1000_EPISODES[r.blend])
+        for r in rows
+    )
+    compiles = len({r.policy for r in rows})
+    return (per_group + compiles * EST_SCENE_COMPILE_S) * scenes_behaviors
 
 
 def fig9_videos_s(plan: Plan) -> float:

@@ -45,9 +45,9 @@ class Plan:
     """
 
     quick: bool = False
-    """The quick profile (one seed, one behaviour, short training, fewer episodes; 9 min on 2 cores)
-    instead of the full one (10 seeds on each of the four behaviours, 4 M steps per run,
-    300 episodes per cell)."""
+    """The quick profile (one seed, one behaviour, short training, fewer episodes; about 4
+    min on 2 cores) instead of the full one (10 seeds on each of the four behaviours, 4 M
+    steps per run, 300 episodes per cell)."""
     power: bool = False
     """The power profile: only rl and sp_rl, 30 seeds on reactive and random_reactive,
     Table I at 1.6 and 1.8 m/s (the primary endpoints; no Table II, Fig. 9, transfer or
