@@ -17,6 +17,7 @@ PREFIXES = {
     "train": ["train"],
     "eval": ["eval", "pursuit"],
     "evader train": ["evader", "train"],
+    "evader selfplay": ["evader", "selfplay"],
     "reproduce": ["reproduce"],
     "bench env": ["bench", "env"],
     "bench ppo": ["bench", "ppo"],
