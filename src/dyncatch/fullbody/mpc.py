@@ -20,7 +20,6 @@ pair's line crosses it, and the plan moves the COM now so that the next stance c
 from __future__ import annotations
 
 import numpy as np
-import qpsolvers
 
 from dyncatch.fullbody.config import FullBodyCfg
 from dyncatch.fullbody.gait import (
@@ -34,6 +33,7 @@ from dyncatch.fullbody.gait import (
     touchdown_point,
     yaw_of,
 )
+from dyncatch.fullbody.qp import solve_dense
 
 
 def _skew(v: np.ndarray) -> np.ndarray:
@@ -224,18 +224,29 @@ def mpc_stance_forces(
     unit = m * GRAVITY_MPS2
     hess_u, grad_u = hess * unit**2, grad * unit
     scale = 1.0 / np.max(np.diag(hess_u))
-    u = qpsolvers.solve_qp(
-        hess_u * scale,
-        grad_u * scale,
-        ineq,
-        np.zeros(4 * feet_n),
-        lb=lb / unit,
-        ub=ub / unit,
-        solver=mp.solver,
-        eps_abs=mp.solver_tolerance,
-    )
+    u = _solve(hess_u * scale, grad_u * scale, ineq, lb / unit, ub / unit, mp)
     if u is None:
         return stance_forces(obs, cmd, state, stance, cfg)
     forces = np.zeros((4, 3))
     forces[legs_k[0]] = unit * u[: offsets[1]].reshape(-1, 3)
     return forces
+
+
+def _solve(hess, grad, ineq, lb, ub, mp) -> np.ndarray | None:
+    """The QP ``hess``, ``grad``, ``ineq u <= 0``, ``lb <= u <= ub`` by ``MpcCfg.solver``."""
+    if mp.solver == "proxqp":
+        return solve_dense(hess, grad, ineq, np.zeros(len(ineq)), lb, ub, mp.solver_tolerance)
+    # Another solver of qpsolvers (an optional dependency); imported here, after
+    # fullbody.qp has loaded ProxSuite's reproducible build, which qpsolvers then shares.
+    import qpsolvers
+
+    return qpsolvers.solve_qp(
+        hess,
+        grad,
+        ineq,
+        np.zeros(len(ineq)),
+        lb=lb,
+        ub=ub,
+        solver=mp.solver,
+        eps_abs=mp.solver_tolerance,
+    )
