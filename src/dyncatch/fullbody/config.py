@@ -152,6 +152,10 @@ class GaitCfg:
     (7.7 s), ``trot_dls`` fell in 5 and caught 71 (10.3 s), at 1.8 x the CPU time."""
     mpc: MpcCfg = MpcCfg()
     """The MPC's horizon, weights and solver (used when ``controller`` is ``mpc``)."""
+    stance_solve_every: int = 1
+    """The stance forces are found every this many control periods and held in between
+    (re-found at once when the stance feet change); the MPC's first step lasts as long.
+    Ours: 1, the MPC solved at 200 Hz; 2 halves its cost (docs/fullbody.md, "Falls")."""
 
     period_s: float = 0.30
     """Trot cycle: each diagonal pair swings for half of it while the other stands. Ours:
@@ -287,6 +291,8 @@ def validate_fullbody(cfg: FullBodyCfg) -> FullBodyCfg:
             f"physics_dt_s={cfg.physics_dt_s} must divide the control period "
             f"1/control_hz={1.0 / cfg.control_hz} a whole number of times"
         )
+    if cfg.gait.stance_solve_every < 1:
+        raise ValueError(f"gait.stance_solve_every={cfg.gait.stance_solve_every}: use >= 1")
     if not 0.1 <= cfg.gait.period_s <= 1.0:
         raise ValueError(f"gait.period_s={cfg.gait.period_s} must lie in [0.1, 1] s")
     z1 = cfg.z1

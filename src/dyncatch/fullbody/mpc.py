@@ -45,12 +45,13 @@ def _rot_z(yaw: float) -> np.ndarray:
 
 def step_durations_s(cfg: FullBodyCfg) -> np.ndarray:
     """(N,) durations of the horizon's steps, which together span one trot cycle. With
-    ``MpcCfg.short_first_step`` the first lasts one control period (the time its forces are
-    really held) and the others share the rest; otherwise all are equal."""
+    ``MpcCfg.short_first_step`` the first lasts the time its forces are really held
+    (``GaitCfg.stance_solve_every`` control periods) and the others share the rest;
+    otherwise all are equal."""
     g, n = cfg.gait, cfg.gait.mpc.horizon_steps
     if not g.mpc.short_first_step:
         return np.full(n, g.period_s / n)
-    first = 1.0 / cfg.control_hz
+    first = g.stance_solve_every / cfg.control_hz
     return np.concatenate([[first], np.full(n - 1, (g.period_s - first) / (n - 1))])
 
 
