@@ -20,6 +20,7 @@ import json
 from collections import defaultdict
 
 import jax
+import mujoco
 import numpy as np
 import tyro
 
@@ -54,6 +55,8 @@ class FallsCmd:
     """Keep the arm stowed (activation distance 0.01 m): no catch, the trot alone."""
     fullbody: FullBodyCfg = FullBodyCfg()
     """The full body (its ``arm`` is replaced by the world's)."""
+    workers: int | None = None
+    """Worker processes the episodes are split over (None: one per core)."""
 
 
 class Probe:
@@ -79,16 +82,13 @@ class Probe:
     )
 
     def __init__(self, vel_limit_rps: float, torque_limit_nm: np.ndarray):
-        import mujoco
-
-        self._mj = mujoco
         self.vel_limit = vel_limit_rps
         self.torque_limit = np.asarray(torque_limit_nm)
         self.rows: dict[int, list] = defaultdict(list)
 
     def __call__(self, i: int, env, goal) -> None:
         m, d, idx = env.model, env.data, env.idx
-        self._mj.mj_rnePostConstraint(m, d)
+        mujoco.mj_rnePostConstraint(m, d)
         rot = d.xmat[idx.base_body].reshape(3, 3)
         yaw = np.arctan2(rot[1, 0], rot[0, 0])
         c, s = np.cos(yaw), np.sin(yaw)
@@ -125,6 +125,10 @@ class Probe:
                 np.inf if goal is None else np.linalg.norm(env.gripper_m() - goal),
             )
         )
+
+    def merge(self, other: Probe) -> None:
+        """Take the rows a copy saw in a worker process (``FullBodies``)."""
+        self.rows.update(other.rows)
 
     def arrays(self, i: int) -> dict[str, np.ndarray]:
         rows = np.array(self.rows[i], float)
@@ -212,7 +216,9 @@ def main(cmd: FallsCmd) -> dict:
     key = jax.random.key(cmd.seed)
     if cmd.eval_key:
         key = jax.random.fold_in(jax.random.fold_in(key, EVAL_STREAM), 0)
-    out = run_fullbody_episodes(policy, key, world, cmd.episodes, fullbody, probe=probe)
+    out = run_fullbody_episodes(
+        policy, key, world, cmd.episodes, fullbody, probe=probe, workers=cmd.workers
+    )
     result = {"policy": method, **summarise(probe, out["fell"], out["success"])}
     ok = out["success"]
     result["catch_time_of_catches_s"] = (
@@ -229,6 +235,12 @@ def main(cmd: FallsCmd) -> dict:
         "episodes_reaching": len(closest),
         "under_5cm": int(np.sum(np.array(closest) < 0.05)),
         "p50": round(float(np.median(closest)), 3) if closest else None,
+    }
+    # Every physics step (the probe sees control periods only): FullBodyEnv.arm_driver.
+    result["physics_steps"] = {
+        "arm_speed_max_over_limit": round(float(out["arm_speed_ratio"].max()), 4),
+        "arm_torque_max_over_limit": round(float(out["arm_torque_ratio"].max()), 4),
+        "episodes_over_limit": int(out["arm_over_limit"].sum()),
     }
     result["per_episode"] = {
         "success": ok.astype(int).tolist(),

@@ -1,9 +1,10 @@
 """Env-steps/s of ``dyncatch eval --backend mujoco`` (``fullbody.catch``), for docs/performance.md.
 
-``python benchmarks/fullbody_throughput.py [--episodes N] [--duration-s T] [--speed-mps V]``:
-the pursuit baseline against the reactive target, N episodes of at most T seconds played
-at once, run twice (the first run compiles the JAX side). Prints the second run's 50 Hz
-env steps, wall time, this process's CPU time and the steps per second of each.
+``python benchmarks/fullbody_throughput.py [--episodes N] [--duration-s T] [--speed-mps V]
+[--workers W]``: the pursuit baseline against the reactive target, N episodes of at most T
+seconds played at once over W worker processes (``FullBodies``; default one per core), run
+twice (the first run compiles the JAX side). Prints the second run's 50 Hz env steps, wall
+time, CPU time (this process and its workers) and the steps per second of each.
 """
 
 from __future__ import annotations
@@ -28,6 +29,8 @@ class ThroughputCmd:
     """Episode limit (short: the cost per step is what is measured)."""
     speed_mps: float = 1.2
     """Target speed (reactive)."""
+    workers: int | None = None
+    """Worker processes the bodies are split over (None: one per core; 1: this process)."""
 
 
 def main(cmd: ThroughputCmd) -> dict:
@@ -35,9 +38,12 @@ def main(cmd: ThroughputCmd) -> dict:
     world = world.replace(episode=world.episode.replace(duration_s=cmd.duration_s))
     policy = BASELINES["pursuit"](world)
     for seed in (0, 1):
-        out = run_fullbody_episodes(policy, jax.random.key(seed), world, cmd.episodes)
+        out = run_fullbody_episodes(
+            policy, jax.random.key(seed), world, cmd.episodes, workers=cmd.workers
+        )
     result = {
         "episodes": cmd.episodes,
+        "workers": cmd.workers,
         "env_steps": out["env_steps"],
         "wall_s": round(out["wall_s"], 2),
         "cpu_s": round(out["cpu_s"], 2),

@@ -5,9 +5,12 @@
 ``"wall_s"`` key if the runner added one. Rows are paired by (method, speed) across the
 ``jax`` and ``mujoco`` backends; for each pair the table gives both success rates with their
 Wilson 95 % intervals, both mean catch times (failures count as the episode limit), the full
-body's fall rate, and the gap (reduced-order minus full body) with Newcombe's hybrid-score
-95 % interval for a difference of two proportions (from the two Wilson intervals; it ignores
-the pairing of episodes, so it is conservative when outcomes correlate).
+body's fall rate and the share of its episodes with an arm joint over its speed or torque
+limit after a physics step (``arm_over_limit``; "-" in cells run before it was measured), the
+catch-time ratio (full body over reduced-order), and the gap (reduced-order minus full
+body) with Newcombe's hybrid-score 95 % interval for a difference of two proportions (from
+the two Wilson intervals; it ignores the pairing of episodes, so it is conservative when
+outcomes correlate).
 """
 
 from __future__ import annotations
@@ -54,6 +57,8 @@ def table(paths: list[str]) -> list[dict]:
                 "jax": (j["success_rate"], *j["success_ci95"], j["catch_time_s"]),
                 "mujoco": (m["success_rate"], *m["success_ci95"], m["catch_time_s"]),
                 "fell_rate": m.get("fell_rate"),
+                "arm_over_limit_rate": m.get("arm_over_limit_rate"),
+                "time_ratio": m["catch_time_s"] / j["catch_time_s"],
                 "gap": (j["success_rate"] - m["success_rate"], lo, hi),
                 "wall_s": (j["wall_s"], m["wall_s"]),
             }
@@ -64,16 +69,19 @@ def table(paths: list[str]) -> list[dict]:
 def markdown(rows: list[dict]) -> str:
     lines = [
         "| method | speed (m/s) | episodes | JAX success [95 % CI] | JAX catch time (s) "
-        "| full-body success [95 % CI] | full-body catch time (s) | fell | gap [95 % CI] "
-        "| wall s (JAX, full body) |",
-        "|---|---:|---:|---|---:|---|---:|---:|---|---:|",
+        "| full-body success [95 % CI] | full-body catch time (s) | time ratio | fell "
+        "| arm over limit | gap [95 % CI] | wall s (JAX, full body) |",
+        "|---|---:|---:|---|---:|---|---:|---:|---:|---:|---|---:|",
     ]
     for r in rows:
         j, m, g = r["jax"], r["mujoco"], r["gap"]
+        over = r["arm_over_limit_rate"]
+        over = "-" if over is None else f"{over:.3f}"
         lines.append(
             f"| {r['method']} | {r['speed_mps']:.1f} | {r['episodes'][1]} "
             f"| {j[0]:.3f} [{j[1]:.3f}, {j[2]:.3f}] | {j[3]:.2f} "
-            f"| {m[0]:.3f} [{m[1]:.3f}, {m[2]:.3f}] | {m[3]:.2f} | {r['fell_rate']:.3f} "
+            f"| {m[0]:.3f} [{m[1]:.3f}, {m[2]:.3f}] | {m[3]:.2f} | {r['time_ratio']:.2f} "
+            f"| {r['fell_rate']:.3f} | {over} "
             f"| {g[0]:+.3f} [{g[1]:+.3f}, {g[2]:+.3f}] "
             f"| {r['wall_s'][0]:.0f}, {r['wall_s'][1]:.0f} |"
         )

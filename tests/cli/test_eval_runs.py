@@ -100,8 +100,9 @@ def test_a_run_evaluates_on_the_full_body(runs, capsys):
     (reduced,) = _rows(capsys, base)
     (full,) = _rows(capsys, [*base, "--backend", "mujoco"])
     assert (reduced["backend"], full["backend"]) == ("jax", "mujoco")
-    assert set(full) == set(reduced) | {"fell_rate"}
+    assert set(full) == set(reduced) | {"fell_rate", "arm_over_limit_rate"}
     assert full["episodes"] == 2 and full["fell_rate"] == 0.0
+    assert full["arm_over_limit_rate"] == 0.0
     # Half a second from standing cannot close the 2-6 m start on either body: no catch,
     # and the catch time is the episode limit.
     assert full["success_rate"] == reduced["success_rate"] == 0.0

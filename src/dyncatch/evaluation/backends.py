@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import os
 import time
 from collections.abc import Callable
 from contextlib import AbstractContextManager
@@ -51,6 +52,10 @@ class EvalBackend:
             return run_episodes(policy, key, backend_env, num_episodes, events=self.events)
 
 
+FULLBODY_EVENTS = ("fell", "arm_over_limit")
+"""The full body's events (``fullbody.catch.MujocoCatchEnv``'s ``info``)."""
+
+
 @contextlib.contextmanager
 def _open_fullbody(env: Environment):
     with FullBodies(env) as bodies:
@@ -66,7 +71,7 @@ EVAL_BACKENDS: dict[str, EvalBackend] = {
         "the full-body Aliengo + Z1 in MuJoCo under the trot and the arm's IK "
         "(fullbody.catch; needs the fullbody extra)",
         _open_fullbody,
-        ("fell",),
+        FULLBODY_EVENTS,
     ),
 }
 
@@ -88,23 +93,36 @@ def run_fullbody_episodes(
     fullbody: FullBodyCfg | None = None,
     record: int | None = None,
     probe: Callable | None = None,
+    workers: int | None = None,
 ) -> dict[str, np.ndarray]:
     """The ``mujoco`` entry's ``run`` with the measurements of the full-body benchmarks.
 
-    Returns ``success``, ``catch_time_s``, ``return`` and ``fell`` (N,), ``env_steps`` (the
-    50 Hz steps simulated on the full bodies, over all episodes), ``wall_s`` and ``cpu_s``
-    (this process's CPU time: the honest cost on a shared machine), and with ``record`` the
-    recorded episode's ``qpos`` and ``target_m`` (``FullBodies``, which also takes
-    ``fullbody`` and ``probe``).
+    Returns ``success``, ``catch_time_s``, ``return``, ``fell`` and ``arm_over_limit`` (N,),
+    ``arm_speed_ratio`` and ``arm_torque_ratio`` (N,) (each episode's largest arm joint
+    speed and torque over their limits, over every physics step), ``env_steps`` (the 50 Hz
+    steps simulated on the full bodies, over all episodes), ``wall_s`` and ``cpu_s`` (CPU
+    time of this process and its workers: the honest cost on a shared machine), and with
+    ``record`` the recorded episode's ``qpos`` and ``target_m`` (``FullBodies``, which also
+    takes ``fullbody``, ``probe`` and ``workers``).
     """
-    t0, c0 = time.perf_counter(), time.process_time()
-    with FullBodies(env, fullbody, record, probe) as bodies:
-        out = run_episodes(policy, key, bodies.env, num_episodes, events=("fell",))
+    t0, c0 = time.perf_counter(), _cpu_s()
+    with FullBodies(env, fullbody, record, probe, workers) as bodies:
+        out = run_episodes(policy, key, bodies.env, num_episodes, events=FULLBODY_EVENTS)
         out = {k: np.asarray(v) for k, v in out.items()}
+        peaks = bodies.peaks()
+        recorded = bodies.recorded()
     return {
         **out,
+        "arm_speed_ratio": peaks[:, 0],
+        "arm_torque_ratio": peaks[:, 1],
         "env_steps": bodies.env_steps,
         "wall_s": time.perf_counter() - t0,
-        "cpu_s": time.process_time() - c0,
-        **bodies.recorded(),
+        "cpu_s": _cpu_s() - c0,
+        **recorded,
     }
+
+
+def _cpu_s() -> float:
+    """CPU seconds of this process and of its children that have ended."""
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system

@@ -22,10 +22,13 @@ An evaluation-only backend: the full bodies are host state (one ``mujoco.MjData`
 by a ``FullBodies`` pool for the duration of a ``with`` block; a state names its body, so a
 state must be stepped once, in order, as an episode loop does (no replay, no auto-reset).
 ``reset`` takes a new body; once an episode has ended its body stops (no more MuJoCo time).
-Under ``vmap`` the bodies are stepped one after another. The same key gives the same initial
-states and target noise as the JAX backend, so rows of both compare episode for episode. The
-reduced model's gait noise has no counterpart: the trot's own ripple is the noise. A robot
-that falls stays where it fell and catches nothing (``info["fell"]``). The full body's
+Under ``vmap`` a batch's bodies are stepped in one host call, split over worker processes
+(``FullBodies``' ``workers``; ``fullbody.workers``), with the same outcome for any number. The
+same key gives the same initial states and target noise as the JAX backend, so rows of both
+compare episode for episode. The reduced model's gait noise has no counterpart: the trot's
+own ripple is the noise. A robot that falls stays where it fell and catches nothing
+(``info["fell"]``); ``info["arm_over_limit"]``: an arm joint has been over its speed or
+torque limit after a physics step of the episode. The full body's
 constants are ``FullBodyCfg``'s defaults with the world's ``ArmCfg`` (its gait follows
 ``FullBodyCfg.base``, whatever base the policy was trained on); flat, open ground only.
 """
@@ -33,10 +36,11 @@ constants are ``FullBodyCfg``'s defaults with the world's ``ArmCfg`` (its gait f
 from __future__ import annotations
 
 import dataclasses
+import functools
 import itertools
+import os
 from collections.abc import Callable
 from functools import partial
-from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -44,10 +48,9 @@ import numpy as np
 from flax import struct
 from jax.experimental import io_callback
 
+from dyncatch.fullbody.bodies import Bodies, Reach
 from dyncatch.fullbody.config import FullBodyCfg
-from dyncatch.fullbody.env import FullBodyEnv
-from dyncatch.fullbody.gait import yaw_of
-from dyncatch.fullbody.model import build_model
+from dyncatch.fullbody.workers import BodyWorkers
 from dyncatch.sim.api import Environment, JaxCatchEnv, Spec, as_env
 from dyncatch.sim.base import clip_command
 from dyncatch.sim.behaviors import get_behavior
@@ -116,31 +119,33 @@ def _with_body(state: EnvState, body: jax.Array, ended: jax.Array) -> FullBodySt
     return FullBodyState(**fields, body=body, ended=ended)
 
 
-class _Reach(NamedTuple):
-    """The world's constants the bodies' side reads, as Python floats (static: the world's
-    numbers are traced leaves under ``jit``)."""
+def _reach(world: WorldCfg) -> Reach:
+    """The world's constants the bodies read, as Python floats (static: the world's numbers
+    are traced leaves under ``jit``)."""
+    a = world.arm
+    return Reach(
+        float(world.target.height_m), float(a.catch_offset_m), float(a.activation_distance_m)
+    )
 
-    target_height_m: float
-    catch_offset_m: float
-    activation_distance_m: float
 
-    @classmethod
-    def of(cls, world: WorldCfg) -> _Reach:
-        a = world.arm
-        return cls(
-            float(world.target.height_m), float(a.catch_offset_m), float(a.activation_distance_m)
-        )
+def default_workers() -> int:
+    """One worker process per core this process may run on."""
+    return len(os.sched_getaffinity(0))
 
 
 class FullBodies:
-    """The host side of a full-body evaluation: the bodies ``MujocoCatchEnv``'s states name,
-    sharing one compiled ``MjModel``. ``with FullBodies(world) as bodies:`` registers them, and
-    ``bodies.env`` is the environment that plays on them.
+    """The host side of a full-body evaluation: the bodies ``MujocoCatchEnv``'s states name.
+    ``with FullBodies(world) as bodies:`` registers them, and ``bodies.env`` is the
+    environment that plays on them.
 
-    ``record``: an episode's index (its body, in the order of the first reset) whose state is
-    kept at every 50 Hz step until it ends (``recorded()``; ``benchmarks/fullbody_video.py``).
-    ``probe(i, env, goal)``: called after every 200 Hz control period of body ``i`` with its
-    ``FullBodyEnv`` and the arm's goal (None while stowed; ``benchmarks/fullbody_falls.py``).
+    ``workers``: processes the bodies are split over (``fullbody.workers``; None: one per
+    core, ``default_workers``); 1 keeps them in this process (``bodies.group.envs``). The
+    outcomes are the same with any number. ``record``: an episode's index (its body, in the
+    order of the first reset) whose state is kept at every 50 Hz step until it ends
+    (``recorded()``; ``benchmarks/fullbody_video.py``). ``probe(i, env, goal)``: called after
+    every 200 Hz control period of body ``i`` with its ``FullBodyEnv`` and the arm's goal
+    (None while stowed; ``benchmarks/fullbody_falls.py``); with workers, each works on a
+    copy, and on leaving the block ``probe.merge(copy)`` takes what each copy saw.
     """
 
     _live: dict[int, FullBodies] = {}
@@ -152,19 +157,25 @@ class FullBodies:
         fullbody: FullBodyCfg | None = None,
         record: int | None = None,
         probe: Callable | None = None,
+        workers: int | None = None,
     ):
         world = as_env(env_or_world).world
         self.fullbody = FullBodyCfg(arm=world.arm) if fullbody is None else fullbody
         check_world(world, self.fullbody)
+        self.workers = default_workers() if workers is None else int(workers)
+        if self.workers < 1:
+            raise ValueError(f"workers={workers}: use at least 1 (None: one per core)")
+        if probe is not None and self.workers > 1 and not hasattr(probe, "merge"):
+            raise ValueError("a probe without a merge method runs in this process: workers=1")
         self.id = next(self._ids)
-        self.env = MujocoCatchEnv(world, jnp.int32(self.id), self.fullbody, _Reach.of(world))
+        self.env = MujocoCatchEnv(world, jnp.int32(self.id), self.fullbody, _reach(world))
         self.record, self.probe = record, probe
-        self.envs: list[FullBodyEnv] = []
-        self.fallen: list[bool] = []
+        self.group: Bodies | BodyWorkers | None = None
+        """The bodies (made at the first reset)."""
+        self.count = 0
+        """Bodies made so far."""
         self.env_steps = 0
         """The 50 Hz steps simulated on the full bodies, over all episodes."""
-        self._built = None
-        self._qpos, self._target_m = [], []
 
     def __enter__(self) -> FullBodies:
         FullBodies._live[self.id] = self
@@ -172,54 +183,67 @@ class FullBodies:
 
     def __exit__(self, *exc) -> None:
         del FullBodies._live[self.id]
+        if isinstance(self.group, BodyWorkers):
+            if self.probe is not None and exc[0] is None:
+                for copy in self.group.probes():
+                    self.probe.merge(copy)
+            self.group.close()
 
     def recorded(self) -> dict[str, np.ndarray]:
         """The recorded episode as ``qpos`` (T, nq) and ``target_m`` (T, 3) (world frame)."""
-        if self.record is None:
+        if self.record is None or self.group is None:
             return {}
-        return {"qpos": np.array(self._qpos), "target_m": np.array(self._target_m)}
+        return self.group.recorded()
+
+    def peaks(self) -> np.ndarray:
+        """(bodies, 2): each body's largest arm joint speed and torque, each over its limit,
+        over every physics step of its episode (``FullBodyEnv.arm_driver``)."""
+        if self.group is None:
+            return np.zeros((0, 2))
+        return self.group.peaks(np.arange(self.count))
 
     def reset(self, xy_m, yaw_rad, origin_xy_m) -> np.ndarray:
         """A new body standing at the reduced robot's pose; its index, () int32."""
-        if self._built is None:
-            self._built = build_model(self.fullbody)
-        body = FullBodyEnv(self.fullbody, self._built)
+        if self.group is None:
+            self.group = (
+                Bodies(self.fullbody, self.record, self.probe)
+                if self.workers == 1
+                else BodyWorkers(self.fullbody, self.workers, self.record, self.probe)
+            )
+        i = self.count
         origin = np.asarray(origin_xy_m, float)
-        body.reset(xy_m=tuple(origin + np.asarray(xy_m, float)), yaw_rad=float(yaw_rad))
-        self.envs.append(body)
-        self.fallen.append(False)
-        return np.int32(len(self.envs) - 1)
+        self.group.reset(i, origin + np.asarray(xy_m, float), float(yaw_rad))
+        self.count += 1
+        return np.int32(i)
 
-    def step(self, reach: _Reach, i, ended, command, target_xy_m, origin_xy_m):
-        """One control step of body ``i`` while the target passes ``target_xy_m`` (n_sub + 1,
-        2) (in the state's frame, whose origin is ``origin_xy_m``), unless its episode has
-        ended or it has fallen. Returns the measured robot (``RobotState``'s fields, in the
-        state's frame), the smallest catch-point error and whether it has fallen."""
+    def step(self, reach: Reach, body, ended, command, target_xy_m, origin_xy_m):
+        """One control step of bodies ``body`` (B,) while their targets pass ``target_xy_m``
+        (B, n_sub + 1, 2) (each in its state's frame, whose origin is ``origin_xy_m`` (B,
+        2)), those whose episode has ended or who have fallen standing still. Returns the
+        measured robots (``RobotState``'s fields, in the states' frames), the smallest
+        catch-point errors, whether each has fallen and whether its arm has been over a
+        limit, each (B, ...)."""
         # The arguments come as arrays of JAX: in float64 numpy, as the bodies compute.
-        i, env, ended = int(i), self.envs[int(i)], bool(ended)
         origin = np.asarray(origin_xy_m, float)
-        target_xy_m = np.asarray(target_xy_m, float) + origin
-        best = np.inf
-        if not (ended or self.fallen[i]):
-            best = _physics(env, i, np.asarray(command, float), target_xy_m, reach, self.probe)
-            self.fallen[i] = env.fallen()
-            self.env_steps += 1
-        if i == self.record and not ended:
-            self._qpos.append(env.data.qpos.copy())
-            self._target_m.append(env.data.mocap_pos[env.idx.target_mocap].copy())
-        d, idx = env.data, env.idx
-        vel = env.base_velocity_heading()
-        grip = env.gripper_m()
+        targets = np.asarray(target_xy_m, float) + origin[:, None, :]
+        ids = np.asarray(body).astype(np.int64)
+        out = self.group.step(
+            reach, ids, np.asarray(ended, bool), np.asarray(command, float), targets
+        )
+        self.env_steps += out.stepped
+        rows = out.rows
         f32 = partial(np.asarray, dtype=np.float32)
+        gripper = np.concatenate([rows[:, 12:14] - origin, rows[:, 14:15]], axis=1)
         return (
-            f32(d.qpos[:2] - origin),
-            f32(yaw_of(d.xmat[idx.base_body].reshape(3, 3))),
-            f32(vel[:2]),
-            f32(vel[2]),
-            f32(d.qpos[idx.arm_qpos]),
-            f32(np.concatenate([grip[:2] - origin, grip[2:]])),
-            f32(best),
-            np.bool_(self.fallen[i]),
+            f32(rows[:, 0:2] - origin),
+            f32(rows[:, 2]),
+            f32(rows[:, 3:5]),
+            f32(rows[:, 5]),
+            f32(rows[:, 6:12]),
+            f32(gripper),
+            f32(out.best_m),
+            out.fell,
+            out.over_limit,
         )
 
 
@@ -235,33 +259,51 @@ def _reset_body(pool, xy_m, yaw_rad, origin_xy_m):
     return _pool(pool).reset(xy_m, yaw_rad, origin_xy_m)
 
 
-def _step_body(reach, pool, *args):
+def _step_bodies(reach, pool, *args):
     return _pool(pool).step(reach, *args)
 
 
-def _catch_error_m(gripper_m: np.ndarray, target_xyz_m: np.ndarray, reach: _Reach) -> float:
-    """``sim.env.catch_error_m`` in numpy (world frame)."""
-    catch_point = gripper_m - np.array([0.0, 0.0, reach.catch_offset_m])
-    return float(np.linalg.norm(target_xyz_m - catch_point))
+@functools.cache
+def _step_io(reach: Reach):
+    """The host step of the bodies as a function of JAX arrays: one call per batch under
+    ``vmap`` (``custom_vmap``; a plain ``io_callback`` would call the host once per body, one
+    after another), so the host can step a batch's bodies at once over its workers."""
 
+    def call(pool, body, ended, command, target_xy, origin):
+        b = body.shape[0]
+        f32 = partial(jax.ShapeDtypeStruct, dtype=jnp.float32)
+        flag = partial(jax.ShapeDtypeStruct, dtype=jnp.bool_)
+        shapes = (
+            f32((b, 2)),
+            f32((b,)),
+            f32((b, 2)),
+            f32((b,)),
+            f32((b, 6)),
+            f32((b, 3)),
+            f32((b,)),
+            flag((b,)),
+            flag((b,)),
+        )
+        args = (pool, body, ended, command, target_xy, origin)
+        return io_callback(partial(_step_bodies, reach), shapes, *args, ordered=False)
 
-def _physics(env: FullBodyEnv, i: int, command, target_xy_m: np.ndarray, reach: _Reach, probe):
-    """One control step of a full body through the sub-steps while the target passes
-    ``target_xy_m`` (n_sub + 1, 2) (world frame). Returns the smallest catch-point error."""
-    height = reach.target_height_m
-    best = np.inf
-    for xy in target_xy_m[:-1]:
-        target = np.array([xy[0], xy[1], height])
-        best = min(best, _catch_error_m(env.gripper_m(), target, reach))
-        near = np.sum((xy - env.data.qpos[:2]) ** 2) <= reach.activation_distance_m**2
-        goal = target + np.array([0.0, 0.0, reach.catch_offset_m]) if near else None
-        env.set_target(target)
-        env.step(command, goal)
-        if probe is not None:
-            probe(i, env, goal)
-    last = np.array([*target_xy_m[-1], height])
-    env.set_target(last)
-    return min(best, _catch_error_m(env.gripper_m(), last, reach))
+    @jax.custom_batching.custom_vmap
+    def step(pool, body, ended, command, target_xy, origin):
+        one = [a[None] for a in (body, ended, command, target_xy, origin)]
+        return tuple(o[0] for o in call(pool, *one))
+
+    @step.def_vmap
+    def _batched(axis_size, in_batched, pool, *args):
+        if in_batched[0]:
+            raise ValueError("a batch of full-body states must share one FullBodies")
+        args = [
+            a if batched else jnp.broadcast_to(a, (axis_size, *a.shape))
+            for a, batched in zip(args, in_batched[1:], strict=True)
+        ]
+        out = call(pool, *args)
+        return out, tuple(True for _ in out)
+
+    return step
 
 
 @struct.dataclass
@@ -274,7 +316,7 @@ class MujocoCatchEnv:
     pool: jax.Array
     """() int32: its ``FullBodies`` (a leaf, so one compilation serves every pool)."""
     fullbody: FullBodyCfg = struct.field(pytree_node=False)
-    reach: _Reach = struct.field(pytree_node=False)
+    reach: Reach = struct.field(pytree_node=False)
 
     def reset(self, key: jax.Array) -> FullBodyState:
         state = sim_reset(key, self.world)
@@ -292,18 +334,8 @@ class MujocoCatchEnv:
 
     def step(self, state: FullBodyState, action: jax.Array):
         command, target, target_xy, key, sense_noise = plan_target(state, action, self.world)
-        f32 = partial(jax.ShapeDtypeStruct, dtype=jnp.float32)
-        shapes = (f32((2,)), f32(()), f32((2,)), f32(()), f32((6,)), f32((3,)), f32(()))
-        xy, yaw, vel, yaw_rate, arm_q, gripper, best, fell = io_callback(
-            partial(_step_body, self.reach),
-            (*shapes, jax.ShapeDtypeStruct((), jnp.bool_)),
-            self.pool,
-            state.body,
-            state.ended,
-            command,
-            target_xy,
-            state.origin_xy_m,
-            ordered=False,
+        xy, yaw, vel, yaw_rate, arm_q, gripper, best, fell, over = _step_io(self.reach)(
+            self.pool, state.body, state.ended, command, target_xy, state.origin_xy_m
         )
         robot = state.robot.replace(
             xy_m=xy,
@@ -317,6 +349,7 @@ class MujocoCatchEnv:
             state, robot, target, best, key, sense_noise, self.world
         )
         info["fell"] = fell
+        info["arm_over_limit"] = over
         return _with_body(new, state.body, state.ended | done), obs, reward, done, info
 
     def observe(self, state: FullBodyState) -> Obs:
@@ -324,7 +357,7 @@ class MujocoCatchEnv:
 
     def with_world(self, world: WorldCfg) -> MujocoCatchEnv:
         check_world(world, self.fullbody)
-        return self.replace(world=world, reach=_Reach.of(world))
+        return self.replace(world=world, reach=_reach(world))
 
     @property
     def observation_spec(self) -> Spec:

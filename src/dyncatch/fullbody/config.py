@@ -50,6 +50,21 @@ class Z1Cfg:
     lagging joint catches up at the limit. Ours: the margin leaves room for the trunk's own
     motion, which the joints feel; None is the plain PD (which overran the limit by up to
     1.58 x under the trained policy)."""
+    speed_limiter: bool = True
+    """Hold every arm joint to the Z1's speed limit (``ArmCfg.max_joint_vel_rps``, the URDF's
+    3.1415 rad/s) after every physics step, as its driver's speed limiter does
+    (``fullbody.speed_limit``): a physics step that would leave a joint above it is taken
+    again with the arm's commands changed by the step's own sensitivity to bring it back.
+    Ours: the PD's drive fraction alone (``pd_speed_fraction``) let joints reach 1.17 x the
+    limit for moments (docs/fullbody.md, "Falls"); False measures that."""
+    speed_limiter_aim: float = 0.999
+    """Fraction of the speed limit the limiter brings a joint back to. Ours: just inside the
+    limit, so that the sensitivity's error (it leaves out the feet's contacts) does not
+    carry the joint over again."""
+    speed_limiter_passes: int = 4
+    """Most times one physics step is taken again. Ours: the sensitivity is exact but for
+    the contacts and servos that leave or enter their torque clip, so a second pass is
+    rare; a joint the torque limit cannot brake stays over (measured in the peaks)."""
     joint_damping_nms_per_rad: float = 0.1
     """Passive joint damping of the MJCF joints. Ours: small; the URDF's 1-2 are Gazebo
     friction stand-ins, and the PD supplies the damping."""
@@ -137,6 +152,12 @@ class GaitCfg:
     (7.7 s), ``trot_dls`` fell in 5 and caught 71 (10.3 s), at 1.8 x the CPU time."""
     mpc: MpcCfg = MpcCfg()
     """The MPC's horizon, weights and solver (used when ``controller`` is ``mpc``)."""
+    stance_solve_every: int = 1
+    """The stance forces are found every this many control periods and held in between
+    (re-found at once when the stance feet change); the MPC's first step lasts as long.
+    Ours, measured (docs/fullbody.md, "Falls", pursuit at 1.2 m/s, 40 episodes): 2 costs 0.66
+    x the CPU time, with no fall either, but the trunk rolls twice as much (99th percentile
+    0.075 against 0.032 rad while reaching), so 1 stays."""
 
     period_s: float = 0.30
     """Trot cycle: each diagonal pair swings for half of it while the other stands. Ours:
@@ -272,6 +293,8 @@ def validate_fullbody(cfg: FullBodyCfg) -> FullBodyCfg:
             f"physics_dt_s={cfg.physics_dt_s} must divide the control period "
             f"1/control_hz={1.0 / cfg.control_hz} a whole number of times"
         )
+    if cfg.gait.stance_solve_every < 1:
+        raise ValueError(f"gait.stance_solve_every={cfg.gait.stance_solve_every}: use >= 1")
     if not 0.1 <= cfg.gait.period_s <= 1.0:
         raise ValueError(f"gait.period_s={cfg.gait.period_s} must lie in [0.1, 1] s")
     z1 = cfg.z1
@@ -280,6 +303,11 @@ def validate_fullbody(cfg: FullBodyCfg) -> FullBodyCfg:
         raise ValueError(
             "z1.link_mass_kg, z1.max_torque_nm, z1.kp_nm_per_rad and z1.kd_nms_per_rad need "
             "one value per joint (6)"
+        )
+    if not 0.0 < z1.speed_limiter_aim <= 1.0 or z1.speed_limiter_passes < 1:
+        raise ValueError(
+            f"z1.speed_limiter_aim={z1.speed_limiter_aim} must lie in (0, 1] and "
+            f"z1.speed_limiter_passes={z1.speed_limiter_passes} be at least 1"
         )
     if cfg.stand_height_m <= 0.2:
         raise ValueError(

@@ -21,6 +21,7 @@ from dyncatch.fullbody.gait import (
 )
 from dyncatch.fullbody.legs import FOOT_RADIUS_M, leg_ik, nominal_feet_base
 from dyncatch.fullbody.model import build_model, robot_mass_kg
+from dyncatch.fullbody.speed_limit import ArmSpeedLimiter
 from dyncatch.fullbody.stance import STANCE_CONTROLLERS
 
 
@@ -56,6 +57,8 @@ class FullBodyEnv:
         self._stance_fn = STANCE_CONTROLLERS[self.cfg.gait.controller]
         frac = z1.pd_speed_fraction
         self._arm_pd_speed_rps = None if frac is None else frac * self.cfg.arm.max_joint_vel_rps
+        self.arm_driver = ArmSpeedLimiter(self.model, self.idx, self.cfg)
+        """Steps the physics with the Z1's speed limit; keeps the arm's peak speed and torque."""
 
     @property
     def dt_s(self) -> float:
@@ -74,6 +77,7 @@ class FullBodyEnv:
         self.arm_q_des = np.asarray(self.cfg.arm.stow_rad, float)
         self.arm_qd_des = np.zeros(6)
         self.time_s = 0.0
+        self.arm_driver.reset_peaks()
         obs = self.observe()
         self.gait = initial_gait_state(obs)
         return obs
@@ -156,7 +160,7 @@ class FullBodyEnv:
         return self.observe()
 
     def _run_pd(self, legs: JointTargets) -> None:
-        mj, m, d, idx = self._mj, self.model, self.data, self.idx
+        m, d, idx = self.model, self.data, self.idx
         # Gravity (and Coriolis) compensation of the arm, held over the control period. The
         # arm's servos (model._add_arm) give kp (ctrl - q) - kd qd: this ctrl makes that
         # kp (q_des - q) + kd (qd_des - qd) + tau_ff, the Z1's PD law with its feedforward.
@@ -172,7 +176,7 @@ class FullBodyEnv:
             q, qd = d.qpos[idx.leg_qpos], d.qvel[idx.leg_dof]
             tau_leg = legs.kp * (legs.q_des - q) + legs.kd * (legs.qd_des - qd) + legs.tau_ff
             d.ctrl[idx.leg_ctrl] = np.clip(tau_leg, self._leg_lo, self._leg_hi)
-            mj.mj_step(m, d)
+            self.arm_driver.step(m, d)
 
     def fallen(self) -> bool:
         """True once the trunk is below ``fall_height_m`` or tilted past ``fall_tilt_rad``."""

@@ -85,6 +85,12 @@ class GaitState:
     cmd_ref: np.ndarray
     """(3,) the command the gait follows: the given one under ``BaseCfg``'s acceleration
     limits (the reduced base's own limits, so both models see the same reference)."""
+    forces_n: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((4, 3)))
+    """(4, 3) the stance forces last solved for (``GaitCfg.stance_solve_every``)."""
+    forces_stance: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(4, bool))
+    """(4,) the stance feet they were solved for."""
+    forces_age: int = 0
+    """Control periods since they were solved."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -350,7 +356,15 @@ def trot_step(
     cur = dataclasses.replace(
         state, phase=phase, trotting=trotting, yaw_ref_rad=float(yaw_ref), hold_xy_m=hold
     )
-    forces = stance_fn(obs, cmd, cur, stance, cfg)
+    # The forces are held for stance_solve_every periods while the same feet stand.
+    age = state.forces_age + 1
+    if age < g.stance_solve_every and np.array_equal(stance, state.forces_stance):
+        forces = state.forces_n
+    else:
+        forces, age = stance_fn(obs, cmd, cur, stance, cfg), 0
+    next_state = dataclasses.replace(
+        next_state, forces_n=forces, forces_stance=stance, forces_age=age
+    )
 
     q_des = obs.leg_q_rad.copy()
     qd_des = np.zeros(12)

@@ -19,8 +19,9 @@ pair's line crosses it, and the plan moves the COM now so that the next stance c
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
-import qpsolvers
 
 from dyncatch.fullbody.config import FullBodyCfg
 from dyncatch.fullbody.gait import (
@@ -34,10 +35,7 @@ from dyncatch.fullbody.gait import (
     touchdown_point,
     yaw_of,
 )
-
-
-def _skew(v: np.ndarray) -> np.ndarray:
-    return np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+from dyncatch.fullbody.qp import solve_dense
 
 
 def _rot_z(yaw: float) -> np.ndarray:
@@ -47,22 +45,48 @@ def _rot_z(yaw: float) -> np.ndarray:
 
 def step_durations_s(cfg: FullBodyCfg) -> np.ndarray:
     """(N,) durations of the horizon's steps, which together span one trot cycle. With
-    ``MpcCfg.short_first_step`` the first lasts one control period (the time its forces are
-    really held) and the others share the rest; otherwise all are equal."""
+    ``MpcCfg.short_first_step`` the first lasts the time its forces are really held
+    (``GaitCfg.stance_solve_every`` control periods) and the others share the rest;
+    otherwise all are equal."""
     g, n = cfg.gait, cfg.gait.mpc.horizon_steps
     if not g.mpc.short_first_step:
         return np.full(n, g.period_s / n)
-    first = 1.0 / cfg.control_hz
+    first = g.stance_solve_every / cfg.control_hz
     return np.concatenate([[first], np.full(n - 1, (g.period_s - first) / (n - 1))])
 
 
-def _zoh(b: np.ndarray, yaw: float, dt: float) -> None:
+def _zoh(b: np.ndarray, rot_t: np.ndarray, dt) -> None:
     """Give the rows of angles and position (0:6) of ``b`` (12, k) their share of a rate
-    change (rows 6:12) held over the step, in place: half of it times ``dt`` (exact for a
-    double integrator under a held input). Without it a force moved the attitude only a step
+    change (rows 6:12) held over the step, in place: half of it times ``dt`` (a float, or
+    (k,) per column; exact for a double integrator under a held input), the angular part
+    through ``rot_t`` = ``Rz(yaw)^T``. Without it a force moved the attitude only a step
     later, and the plan, seeing a slower robot, answered a pitch error by half as much."""
-    b[0:3] = 0.5 * dt * (_rot_z(yaw).T @ b[6:9])
+    b[0:3] = 0.5 * dt * (rot_t @ b[6:9])
     b[3:6] = 0.5 * dt * b[9:12]
+
+
+def _skews(v: np.ndarray) -> np.ndarray:
+    """(..., 3, 3) cross-product matrices of the vectors ``v`` (..., 3)."""
+    out = np.zeros((*v.shape, 3))
+    out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
+    out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
+    out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
+    return out
+
+
+@functools.lru_cache(maxsize=16)
+def _pyramids(feet: int, mu: float, fz_min: float, fz_max: float):
+    """Friction pyramids ``ineq u <= 0`` (4 feet, 3 feet) and bounds (3 feet,) of ``feet``
+    forces; cached (read-only), as only the number of feet changes between solves."""
+    cone = np.array([[1.0, 0, -mu], [-1.0, 0, -mu], [0, 1.0, -mu], [0, -1.0, -mu]])
+    out = (
+        np.kron(np.eye(feet), cone),
+        np.tile([-mu * fz_max, -mu * fz_max, fz_min], feet),
+        np.tile([mu * fz_max, mu * fz_max, fz_max], feet),
+    )
+    for a in out:
+        a.flags.writeable = False
+    return out
 
 
 def contact_plan(
@@ -128,6 +152,43 @@ def _reference(
     return ref
 
 
+def transition(dt: float, yaw: float) -> np.ndarray:
+    """(12, 12) ``A`` of one step: ``I + dt N``, ``N`` taking the rates to the angles (through
+    ``Rz(yaw)^T``) and positions."""
+    a = np.eye(12)
+    a[0:3, 6:9] = _rot_z(yaw).T * dt
+    a[3:6, 9:12] = np.eye(3) * dt
+    return a
+
+
+def condense(
+    dts: np.ndarray, yaw: float, blocks: list[np.ndarray], c_k: list[np.ndarray]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The horizon's states as ``X = Aqp x0 + Bqp U + Cqp`` (``X`` = (x_1, ..., x_N)):
+    ``Aqp`` (12N, 12), ``Bqp`` (12N, sum of the blocks' widths), ``Cqp`` (12N,), from the
+    steps' durations ``dts`` (N,), inputs ``blocks`` (12, w_k) and offsets ``c_k`` (12,).
+
+    ``N`` squared is zero (rates move angles and positions, nothing moves the rates), so a
+    product of transitions is ``A_i ... A_{j+1} = I + (t_i - t_j) N``: every block of ``Bqp``
+    is ``B_j + T N B_j``, written at once instead of by N(N + 1)/2 matrix products."""
+    n = len(dts)
+    nil = transition(1.0, yaw) - np.eye(12)
+    t = np.cumsum(dts)  # t_i: the end of step i
+    a_qp = np.eye(12)[None] + t[:, None, None] * nil[None]
+    widths = [b.shape[1] for b in blocks]
+    offsets = np.concatenate([[0], np.cumsum(widths)]).astype(int)
+    b_qp = np.zeros((n, 12, int(offsets[-1])))
+    for j, b in enumerate(blocks):
+        lag = t[j:] - t[j]  # (n - j,): from the end of step j to the end of step i
+        b_qp[j:, :, offsets[j] : offsets[j + 1]] = b[None] + lag[:, None, None] * (nil @ b)[None]
+    c_qp = np.zeros((n, 12))
+    acc = np.zeros(12)
+    for i in range(n):
+        acc = acc + dts[i] * (nil @ acc) + c_k[i]
+        c_qp[i] = acc
+    return a_qp.reshape(12 * n, 12), b_qp.reshape(12 * n, -1), c_qp.reshape(-1)
+
+
 def mpc_stance_forces(
     obs: RobotObs, cmd: np.ndarray, state: GaitState, stance: np.ndarray, cfg: FullBodyCfg
 ) -> np.ndarray:
@@ -159,83 +220,72 @@ def mpc_stance_forces(
     # Step k: x_{k+1} = A_k x_k + B_k u_k + c_k, B_k over the stance feet of step k; the COM
     # moves along the reference.
     dts = step_durations_s(cfg)
+    rot_t = _rot_z(yaw).T
     com_path = np.vstack([obs.com_m, ref[:-1, 3:6]])
-    a_k, blocks, c_k, legs_k = [], [], [], []
+    lever = inv_i @ _skews(feet - com_path[:, None])  # (N, 4, 3, 3)
+    unit_force = np.eye(3)[:, None, :] / m
+    blocks, legs_k = [], []
     for k in range(n):
         dt = dts[k]
-        a = np.eye(12)
-        a[0:3, 6:9] = _rot_z(yaw).T * dt
-        a[3:6, 9:12] = np.eye(3) * dt
         legs = np.flatnonzero(sched[k])
         b = np.zeros((12, 3 * len(legs)))
-        for j, leg in enumerate(legs):
-            b[6:9, 3 * j : 3 * j + 3] = inv_i @ _skew(feet[k, leg] - com_path[k]) * dt
-            b[9:12, 3 * j : 3 * j + 3] = np.eye(3) * dt / m
-        _zoh(b, yaw, dt)
-        c = rate * dt
-        _zoh(c[:, None], yaw, dt)
-        a_k.append(a)
+        b[6:9] = lever[k, legs].transpose(1, 0, 2).reshape(3, -1) * dt
+        b[9:12].reshape(3, len(legs), 3)[:] = unit_force * dt  # each foot's force / m
+        _zoh(b, rot_t, dt)
         blocks.append(b)
-        c_k.append(c)
         legs_k.append(legs)
-    offsets = np.concatenate([[0], np.cumsum([b.shape[1] for b in blocks])])
+    offset_cols = rate[:, None] * dts[None, :]  # (12, N): c_k by column
+    _zoh(offset_cols, rot_t, dts)
+    c_k = list(offset_cols.T)
+    counts = np.array([len(legs) for legs in legs_k])
+    offsets = np.concatenate([[0], np.cumsum(3 * counts)])
     nvar = int(offsets[-1])
+    a_qp, b_qp, c_qp = condense(dts, yaw, blocks, c_k)
 
-    # Condensed: X = Aqp x0 + Bqp U + Cqp, X = (x_1, ..., x_N).
-    a_qp = np.zeros((12 * n, 12))
-    b_qp = np.zeros((12 * n, nvar))
-    c_qp = np.zeros(12 * n)
-    x_free, acc_c = np.eye(12), np.zeros(12)
-    for i in range(n):
-        x_free = a_k[i] @ x_free
-        acc_c = a_k[i] @ acc_c + c_k[i]
-        a_qp[12 * i : 12 * i + 12] = x_free
-        c_qp[12 * i : 12 * i + 12] = acc_c
-    for j in range(n):
-        prop = blocks[j]
-        for i in range(j, n):
-            if i > j:
-                prop = a_k[i] @ prop
-            b_qp[12 * i : 12 * i + 12, offsets[j] : offsets[j + 1]] = prop
     # Each step's cost counts for its duration; forces are penalised away from the weight
     # shared evenly over the step's stance feet (not away from zero, which would starve the
     # short first step of support).
     share = dts / dts.mean()
     q_diag = (share[:, None] * np.asarray(mp.state_weights, float)).reshape(-1)
-    r_diag = np.concatenate(
-        [np.full(b.shape[1], mp.force_weight * w) for b, w in zip(blocks, share, strict=True)]
-    )
-    u_nom = np.concatenate(
-        [np.tile([0.0, 0.0, m * GRAVITY_MPS2 / max(len(legs), 1)], len(legs)) for legs in legs_k]
-    )
+    r_diag = np.repeat(mp.force_weight * share, 3 * counts)
+    u_nom = np.zeros(nvar)
+    u_nom[2::3] = np.repeat(m * GRAVITY_MPS2 / np.maximum(counts, 1), counts)
     free = a_qp @ x0 + c_qp - ref.reshape(-1)
     hess = b_qp.T @ (q_diag[:, None] * b_qp) + np.diag(r_diag)
     grad = b_qp.T @ (q_diag * free) - r_diag * u_nom
 
-    mu, fz_max = g.friction_coef, mp.max_normal_force_n
-    feet_n = nvar // 3
-    cone = np.array([[1.0, 0, -mu], [-1.0, 0, -mu], [0, 1.0, -mu], [0, -1.0, -mu]])
-    ineq = np.kron(np.eye(feet_n), cone)
-    lb = np.tile([-mu * fz_max, -mu * fz_max, mp.min_normal_force_n], feet_n)
-    ub = np.tile([mu * fz_max, mu * fz_max, fz_max], feet_n)
+    ineq, lb, ub = _pyramids(
+        nvar // 3, g.friction_coef, mp.min_normal_force_n, mp.max_normal_force_n
+    )
     # Solved in units of the robot's weight, the cost scaled to a unit largest curvature:
     # in newtons the curvature is ~1e-6 and the solver's tolerances would leave tens of
     # newtons unresolved.
     unit = m * GRAVITY_MPS2
     hess_u, grad_u = hess * unit**2, grad * unit
     scale = 1.0 / np.max(np.diag(hess_u))
-    u = qpsolvers.solve_qp(
-        hess_u * scale,
-        grad_u * scale,
-        ineq,
-        np.zeros(4 * feet_n),
-        lb=lb / unit,
-        ub=ub / unit,
-        solver=mp.solver,
-        eps_abs=mp.solver_tolerance,
-    )
+    u = _solve(hess_u * scale, grad_u * scale, ineq, lb / unit, ub / unit, mp)
     if u is None:
         return stance_forces(obs, cmd, state, stance, cfg)
     forces = np.zeros((4, 3))
     forces[legs_k[0]] = unit * u[: offsets[1]].reshape(-1, 3)
     return forces
+
+
+def _solve(hess, grad, ineq, lb, ub, mp) -> np.ndarray | None:
+    """The QP ``hess``, ``grad``, ``ineq u <= 0``, ``lb <= u <= ub`` by ``MpcCfg.solver``."""
+    if mp.solver == "proxqp":
+        return solve_dense(hess, grad, ineq, np.zeros(len(ineq)), lb, ub, mp.solver_tolerance)
+    # Another solver of qpsolvers (an optional dependency); imported here, after
+    # fullbody.qp has loaded ProxSuite's reproducible build, which qpsolvers then shares.
+    import qpsolvers
+
+    return qpsolvers.solve_qp(
+        hess,
+        grad,
+        ineq,
+        np.zeros(len(ineq)),
+        lb=lb,
+        ub=ub,
+        solver=mp.solver,
+        eps_abs=mp.solver_tolerance,
+    )

@@ -1,0 +1,71 @@
+"""ProxSuite's dense QP solver from its SSE2 build, so that a solve repeats to the bit.
+
+ProxSuite's wheel ships builds for AVX-512, AVX2 and SSE2 and loads the widest the CPU has.
+In the wide builds Eigen's vectorised loops peel up to the first 32- or 64-byte boundary of
+each of the solver's heap buffers, which malloc aligns to 16 bytes only: the same QP gives
+answers that differ in their last bits with where the workspace landed (measured: 60 MPC
+solves of one trot, the same inputs, two different answers; the SSE2 build, whose 16-byte
+packets match the heap's alignment, gives one). Over a trot those bits grow into different
+episodes, so neither the same key played twice nor episodes split over worker processes
+repeated one another. One build can be loaded per process (they register the same Python
+types): this module loads the SSE2 build when it is the first to import ProxSuite (so
+``dyncatch.fullbody`` is to be imported before ``qpsolvers`` or ``proxsuite``); if another
+build was loaded before it, it warns once and solves with that one.
+"""
+
+from __future__ import annotations
+
+import sys
+import types
+import warnings
+
+import numpy as np
+
+SSE2_BUILD = "proxsuite.proxsuite_pywrap"
+"""The module of ProxSuite's SSE2 build (``proxsuite/__init__.py`` picks among three)."""
+
+
+def _load_sse2():
+    if "proxsuite" not in sys.modules:
+        # proxsuite/__init__.py asks proxsuite.instructionset which wide build the CPU runs;
+        # answered "none", it loads the SSE2 build.
+        shim = types.ModuleType("proxsuite.instructionset")
+        shim.has_AVX512F = shim.has_AVX2 = lambda: False
+        sys.modules["proxsuite.instructionset"] = shim
+        try:
+            import proxsuite  # noqa: F401
+        finally:
+            del sys.modules["proxsuite.instructionset"]
+    return sys.modules["proxsuite"]._submodule
+
+
+_proxsuite = _load_sse2()
+if _proxsuite.__name__ != SSE2_BUILD:
+    warnings.warn(
+        f"ProxSuite was imported with its {_proxsuite.__name__} build before "
+        "dyncatch.fullbody.qp: the MPC's solves (and full-body episodes) will not repeat to "
+        "the bit; import dyncatch.fullbody before qpsolvers or proxsuite",
+        stacklevel=2,
+    )
+
+
+def solve_dense(
+    hess: np.ndarray,
+    grad: np.ndarray,
+    ineq: np.ndarray,
+    ineq_ub: np.ndarray,
+    lb: np.ndarray,
+    ub: np.ndarray,
+    eps_abs: float,
+) -> np.ndarray | None:
+    """``argmin 1/2 x' hess x + grad' x`` s.t. ``ineq x <= ineq_ub``, ``lb <= x <= ub`` by
+    ProxSuite's dense ProxQP; None if it does not converge. ``hess`` (n, n), ``ineq`` (m, n)."""
+    n = grad.shape[0]
+    c = np.vstack([ineq, np.eye(n)])
+    lower = np.concatenate([np.full(ineq.shape[0], -np.inf), lb])
+    upper = np.concatenate([ineq_ub, ub])
+    qp = _proxsuite.proxqp
+    result = qp.dense.solve(hess, grad, None, None, c, lower, upper, eps_abs=eps_abs)
+    if result.info.status != qp.QPSolverOutput.PROXQP_SOLVED:
+        return None
+    return result.x
