@@ -244,8 +244,6 @@ PROFILES: dict[str, Plan] = {
         predictor_updates=1500,
         table_ii_budgets=(100_000, 500_000),
         table_ii_eval_steps=100_000,
-        # 128-128-64 networks train about 2.4x faster than 256-256-128 on 2 cores.
-        ppo=PPOCfg(hidden_sizes=(128, 128, 64)),
         # One scene, the one with the most obstacles (walls, occlusion, the scan and the
         # blend all act), on the trained behaviour: 4 cells, each compiled once, and one GIF.
         # Measured with two scenes (room_8, woods_rough): 98 s of the quick run's 11.8 min;
