@@ -120,7 +120,7 @@ def summarize(args) -> dict:
     ]
     lines += ["", f"Secondary: differences between methods at {SPEED_MPS} m/s.", ""]
     lines += [
-        "| setting | behaviour | difference | [95 % CI] | half-width |",
+        "| setting | behaviour | pair | difference [95 % CI] | half-width |",
         "|---|---|---|---|---:|",
     ]
     lines += [
@@ -129,6 +129,13 @@ def summarize(args) -> dict:
     ]
     gives = ", ".join(result["gives_rl_its_catch"]) or "none resolved"
     lines += ["", f"Readings whose removal of information resolvedly lowers rl: {gives}."]
+    pending = [setting_name(s) for s in SETTINGS if setting_name(s) not in by_setting]
+    result["pending"] = pending
+    lines += [
+        "",
+        f"Settings measured: {', '.join(by_setting) or 'none'}; "
+        f"still to run: {', '.join(pending) or 'none'}.",
+    ]
     write_summary(args.summary_dir, result, lines)
     return result
 
