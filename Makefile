@@ -41,7 +41,11 @@ demo: $(STAMP)
 # defaults; a test of a bit-for-bit property compiles with them (tests/sim/test_vec.py).
 # From a fresh clone on 2 idle cores: 6 min 44 s, pytest 391 s (commit 4f975fd; where the
 # time goes: docs/performance.md, "The test suite").
-TEST_ENV := JAX_DISABLE_MOST_OPTIMIZATIONS=1 XLA_FLAGS="$(XLA_FLAGS) --xla_cpu_use_fusion_emitters=false"
+# NumPy's OpenBLAS on one thread: the full-body MPC's products (a standing robot's QP over
+# 120 forces) are split over OpenBLAS's threads, which then wait for a busy core (in make
+# test, the other worker's): tests/fullbody/test_gait.py took 46 CPU seconds with OpenBLAS's
+# default threads and 13 with one (docs/performance.md, "The test suite").
+TEST_ENV := JAX_DISABLE_MOST_OPTIMIZATIONS=1 OPENBLAS_NUM_THREADS=1 XLA_FLAGS="$(XLA_FLAGS) --xla_cpu_use_fusion_emitters=false"
 test: $(STAMP)
 	$(TEST_ENV) $(BIN)/python -m pytest -n 2 --dist loadfile --durations=15 -m "not extended"
 
