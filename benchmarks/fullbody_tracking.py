@@ -10,7 +10,8 @@ under ``BaseCfg``'s accelerations), sampled every 200 Hz control period, with th
 after the gait's turn limit (``GaitCfg.max_centripetal_mps2``). Prints one JSON object: per
 backend, how the commands are spread (how often at a limit), how closely the base follows
 them, how fast the gap to the target closes, the reach (time from the arm's first activation
-to the catch; closest catch-point error) and the catches.
+to the catch; closest catch-point error) and the catches; and first, the trot's settled
+velocity under each command of ``--settled`` (``settled``).
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ import tyro
 from dyncatch.evaluation.backends import run_fullbody_episodes
 from dyncatch.evaluation.grid import EVAL_STREAM
 from dyncatch.fullbody.config import FullBodyCfg
+from dyncatch.fullbody.env import FullBodyEnv
 from dyncatch.fullbody.gait import limit_turn
 from dyncatch.policies.api import as_recurrent
 from dyncatch.rl.resolve import resolve_policy
@@ -54,6 +56,15 @@ class TrackingCmd:
     """Worker processes for the full bodies (None: one per core)."""
     skip_fullbody: bool = False
     """Only the reduced model (seconds, not minutes)."""
+    settled: tuple[tuple[float, float, float], ...] = (
+        (2.0, 1.0, 0.0),
+        (1.5, 1.0, 0.0),
+        (0.0, 1.0, 0.0),
+        (2.0, 0.0, 0.0),
+    )
+    """Commands (forward, left m/s, yaw rate rad/s) held 3 s from standing on the full
+    body alone; the mean velocity over the last 1.5 s is printed as ``settled`` (the trot's
+    envelope at the corners of the command box the policy drives at)."""
     traces: str | None = None
     """Also save every control period's probe rows here (``.npz``, one array per episode)."""
 
@@ -157,6 +168,19 @@ def jax_traces(policy, key, world: WorldCfg, n: int) -> tuple[dict[str, np.ndarr
     return rec, np.where(caught, first, -1)
 
 
+def settled_velocity(fullbody: FullBodyCfg, command, hold_s: float = 3.0, measure_s: float = 1.5):
+    """The full body's heading-frame velocity and yaw rate (3,), the mean over the last
+    ``measure_s`` of ``command`` (3,) held ``hold_s`` from standing, arm stowed."""
+    env = FullBodyEnv(fullbody)
+    env.reset()
+    n, m = round(hold_s * fullbody.control_hz), round(measure_s * fullbody.control_hz)
+    vel = []
+    for _ in range(n):
+        env.step(np.asarray(command, float))
+        vel.append(env.base_velocity_heading())
+    return np.mean(vel[-m:], axis=0)
+
+
 def _share(x: np.ndarray, at: float) -> float:
     return round(float(np.mean(np.abs(x) >= at - 1e-3)), 3) if x.size else float("nan")
 
@@ -207,6 +231,11 @@ def main(cmd: TrackingCmd) -> dict:
     cent = cmd.fullbody.gait.max_centripetal_mps2
     out: dict = {"policy": method, "speed_mps": cmd.speed_mps, "episodes": cmd.episodes}
 
+    if not cmd.skip_fullbody:
+        fb_cfg = dataclasses.replace(cmd.fullbody, arm=world.arm)
+        out["settled"] = {
+            str(list(c)): np.round(settled_velocity(fb_cfg, c), 3).tolist() for c in cmd.settled
+        }
     rec, first = jax_traces(policy, key, world, cmd.episodes)
     live = rec["live"]
     dt = world.episode.dt_s
