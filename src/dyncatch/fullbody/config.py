@@ -271,8 +271,9 @@ class FullBodyCfg:
     does to the gripper, through the same damped least squares), and the brake toward the
     goal (``Z1Cfg.max_joint_accel_rps2``) acts on the error relative to it. Ours: braked
     toward a goal taken to be at rest, the targets lag a moving one by ``qd^2 / (2 a)``
-    (5 cm at 2 rad/s, the catch radius); measured (docs/fullbody.md, "Sim-to-sim"). The
-    speed and acceleration bounds still hold the step. False: the goal taken to be at rest."""
+    (5 cm at 2 rad/s, the catch radius); measured: docs/fullbody.md, "What the full body
+    loses". The speed and acceleration bounds still hold the step. False: the goal taken
+    to be at rest."""
     fall_height_m: float = 0.18
     """The robot has fallen when its trunk centre drops below this height..."""
     fall_tilt_rad: float = math.radians(60.0)
