@@ -5,7 +5,9 @@ Jacobian and ``e`` its error, both in the world frame (the DLS step is invariant
 rotation). The result moves the PD *targets* of the arm: the joints follow under PD with
 gravity compensation. The step is clipped to the joint-velocity limit and the joint limits
 (``ArmCfg``), as the JAX arm does, and its change from the last step to the joint-acceleration
-bound (``Z1Cfg.max_joint_accel_rps2``), which the kinematic JAX arm does not have.
+bound (``Z1Cfg.max_joint_accel_rps2``), which the kinematic JAX arm does not have; under that
+bound a moving goal's rate is fed forward (``goal_rate``), which the JAX arm, closing its whole
+error every step, does not need.
 """
 
 from __future__ import annotations
