@@ -5,7 +5,9 @@ Jacobian and ``e`` its error, both in the world frame (the DLS step is invariant
 rotation). The result moves the PD *targets* of the arm: the joints follow under PD with
 gravity compensation. The step is clipped to the joint-velocity limit and the joint limits
 (``ArmCfg``), as the JAX arm does, and its change from the last step to the joint-acceleration
-bound (``Z1Cfg.max_joint_accel_rps2``), which the kinematic JAX arm does not have.
+bound (``Z1Cfg.max_joint_accel_rps2``), which the kinematic JAX arm does not have; under that
+bound a moving goal's rate is fed forward (``goal_rate``), which the JAX arm, closing its whole
+error every step, does not need.
 """
 
 from __future__ import annotations
@@ -74,19 +76,34 @@ def ik_target_step(
     dt_s: float,
     max_step_rad: float,
     max_accel_rps2: float,
+    goal_vel_mps: np.ndarray | None = None,
 ) -> np.ndarray:
     """Next arm PD targets (6,) moving the gripper toward ``goal_m`` (3,) in one step.
 
     ``jac`` (3, 6) and ``gripper_m`` (3,) are those of the commanded joints ``q_des`` (6,);
-    ``qd_prev`` (6,) is the last step's rate of the targets.
+    ``qd_prev`` (6,) is the last step's rate of the targets. ``goal_vel_mps`` (3,): the
+    goal's velocity relative to the gripper held still on the trunk (None: at rest); the
+    step then carries the joint rate that follows it (``goal_rate``), and the brake acts on
+    the error relative to the moving goal.
     """
     dq = dls_delta(jac, goal_m - gripper_m, arm.ik_damping, arm.ik_gain)
     # Scaled as a whole, not clipped joint by joint, so that the step keeps its direction:
     # first to the IK's own bound, then (after braking toward it) to the speed limit.
     dq = _brake(scale_to_bound(dq, max_step_rad), max_accel_rps2, dt_s)
+    if goal_vel_mps is not None:
+        dq = dq + goal_rate(jac, goal_vel_mps, arm.ik_damping) * dt_s
     dq = scale_to_bound(dq, arm.max_joint_vel_rps * dt_s)
     q_new = q_des + limit_step(dq, qd_prev, arm.max_joint_vel_rps, max_accel_rps2, dt_s)
     return np.clip(q_new, arm.joint_min_rad, arm.joint_max_rad)
+
+
+def goal_rate(jac: np.ndarray, goal_vel_mps: np.ndarray, damping: float) -> np.ndarray:
+    """Joint rate (6,) that moves the gripper with a goal moving at ``goal_vel_mps`` (3,)
+    relative to it, by the same damped least squares as the IK's step (``jac`` (3, 6)):
+    the braked step toward the goal is then taken relative to the goal's own motion, so a
+    moving goal is followed without the lag ``qd^2 / (2 max_accel)`` that braking toward
+    it as if at rest leaves (``FullBodyCfg.arm_goal_feedforward``)."""
+    return dls_delta(jac, np.asarray(goal_vel_mps, float), damping, 1.0)
 
 
 def stow_target_step(

@@ -147,13 +147,15 @@ def _physics(env: FullBodyEnv, i: int, command, target_xy_m: np.ndarray, reach: 
     ``target_xy_m`` (n_sub + 1, 2) (world frame). Returns the smallest catch-point error."""
     height = reach.target_height_m
     best = np.inf
-    for xy in target_xy_m[:-1]:
+    for xy, xy_next in zip(target_xy_m[:-1], target_xy_m[1:], strict=True):
         target = np.array([xy[0], xy[1], height])
         best = min(best, _catch_error_m(env.gripper_m(), target, reach))
         near = np.sum((xy - env.data.qpos[:2]) ** 2) <= reach.activation_distance_m**2
         goal = target + np.array([0.0, 0.0, reach.catch_offset_m]) if near else None
+        # The target's velocity over this period (the arm aims at the true target).
+        goal_vel = np.array([*((xy_next - xy) / env.dt_s), 0.0])
         env.set_target(target)
-        env.step(command, goal)
+        env.step(command, goal, goal_vel if near else None)
         if probe is not None:
             probe(i, env, goal)
     last = np.array([*target_xy_m[-1], height])

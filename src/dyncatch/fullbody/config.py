@@ -265,6 +265,15 @@ class FullBodyCfg:
     max_arm_ik_step_rad: float = 0.25
     """Largest DLS joint change per control step (a bound on the IK's own step, under
     which the arm's velocity limit then clips)."""
+    arm_goal_feedforward: bool = True
+    """The arm's IK follows a moving goal: its step carries the joint rate that moves the
+    gripper with the goal (the target's velocity less what the trunk's horizontal motion
+    does to the gripper, through the same damped least squares), and the brake toward the
+    goal (``Z1Cfg.max_joint_accel_rps2``) acts on the error relative to it. Ours: braked
+    toward a goal taken to be at rest, the targets lag a moving one by ``qd^2 / (2 a)``
+    (5 cm at 2 rad/s, the catch radius); measured: docs/fullbody.md, "What the full body
+    loses". The speed and acceleration bounds still hold the step. False: the goal taken
+    to be at rest."""
     fall_height_m: float = 0.18
     """The robot has fallen when its trunk centre drops below this height..."""
     fall_tilt_rad: float = math.radians(60.0)

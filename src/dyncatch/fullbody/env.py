@@ -116,10 +116,14 @@ class FullBodyEnv:
         """Place the kinematic target sphere's centre at ``pos_m`` (3,)."""
         self.data.mocap_pos[self.idx.target_mocap] = pos_m
 
-    def _arm_targets(self, goal_m: np.ndarray | None) -> np.ndarray:
+    def _arm_targets(
+        self, goal_m: np.ndarray | None, goal_vel_mps: np.ndarray | None = None
+    ) -> np.ndarray:
         """Next arm PD targets. The DLS step runs on the *commanded* joints (their gripper
         and Jacobian from a scratch ``MjData`` at the measured base pose), as the JAX arm
-        does; the PD then tracks the converged targets, so its lag cannot wind the IK up."""
+        does; the PD then tracks the converged targets, so its lag cannot wind the IK up.
+        With ``goal_vel_mps`` (3,, world) and ``FullBodyCfg.arm_goal_feedforward`` the step
+        follows the goal's motion relative to the trunk's horizontal motion."""
         mj, m, idx = self._mj, self.model, self.idx
         if goal_m is None:
             return stow_target_step(
@@ -131,27 +135,44 @@ class FullBodyEnv:
         mj.mj_kinematics(m, k)
         mj.mj_comPos(m, k)
         mj.mj_jacSite(m, k, self._jacp, None, idx.gripper_site)
+        gripper = k.site_xpos[idx.gripper_site].copy()
+        rel_vel = None
+        if goal_vel_mps is not None and self.cfg.arm_goal_feedforward:
+            # What the trunk's horizontal motion (velocity, yaw rate) does to the gripper
+            # held still on it; its ripple (roll, pitch, bounce) is left to the feedback.
+            d = self.data
+            yaw_rate = (d.xmat[idx.base_body].reshape(3, 3) @ d.qvel[3:6])[2]
+            r = gripper[:2] - d.qpos[:2]
+            carried = d.qvel[:2] + yaw_rate * np.array([-r[1], r[0]])
+            rel_vel = np.asarray(goal_vel_mps, float) - np.array([*carried, 0.0])
         return ik_target_step(
             self.arm_q_des,
             self.arm_qd_des,
             self._jacp[:, idx.arm_dof],
-            k.site_xpos[idx.gripper_site].copy(),
+            gripper,
             np.asarray(goal_m, float),
             self.cfg.arm,
             self.dt_s,
             self.cfg.max_arm_ik_step_rad,
             self._arm_accel,
+            rel_vel,
         )
 
-    def step(self, cmd: np.ndarray, arm_goal_m: np.ndarray | None = None) -> RobotObs:
+    def step(
+        self,
+        cmd: np.ndarray,
+        arm_goal_m: np.ndarray | None = None,
+        arm_goal_vel_mps: np.ndarray | None = None,
+    ) -> RobotObs:
         """One control period. ``cmd`` (3,): forward, left (m/s, heading frame), yaw rate
-        (rad/s). ``arm_goal_m`` (3,): where the gripper should go (world), None to stow."""
+        (rad/s). ``arm_goal_m`` (3,): where the gripper should go (world), None to stow;
+        ``arm_goal_vel_mps`` (3,): its velocity (world), None for a goal at rest."""
         if self.gait is None:
             raise RuntimeError("call reset() before step()")
         cmd = np.asarray(cmd, float)
         obs = self.observe()
         legs, self.gait = trot_step(obs, cmd, self.gait, self.cfg, self._stance_fn)
-        q_des = self._arm_targets(arm_goal_m)
+        q_des = self._arm_targets(arm_goal_m, arm_goal_vel_mps)
         # The commanded joint velocity: the targets' step over the period (the SDK's dq).
         self.arm_qd_des = (q_des - self.arm_q_des) / self.dt_s
         self.arm_q_des = q_des
