@@ -111,7 +111,6 @@ assert "all-reduce" in iterate.lower(ts).compile().as_text()
 """
 
 
-@pytest.mark.extended  # a cold 2-device process (50 s); sharded code runs on 1 device everywhere
 def test_a_run_resumed_at_its_end_reports_its_last_metrics(runs):
     """Nothing is left to train: the final metrics (reproduce's done.json) are the last
     logged row, for a group and for a single run, and no row is added."""
@@ -130,6 +129,7 @@ def test_a_run_resumed_at_its_end_reports_its_last_metrics(runs):
             assert final == {k: float(v) for k, v in last.items() if v}
 
 
+@pytest.mark.extended  # a cold 2-device process (50 s); sharded code runs on 1 device everywhere
 def test_two_devices_give_the_metrics_of_one(runs, tmp_path):
     """The environment batch and the PPO minibatches split over 2 (forced host) devices:
     the same runs to float tolerance (only the order of the cross-device sums differs)."""
