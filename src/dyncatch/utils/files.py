@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import json
 import os
+import tempfile
 from pathlib import Path
 
 
@@ -39,9 +41,6 @@ def check_out_dir(out: str | os.PathLike, flag: str = "--out") -> Path:
 
 def write_json(path: str | os.PathLike, obj) -> None:
     """Atomic JSON write (a crash leaves the old file or none, never half of one)."""
-    import json
-    import tempfile
-
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
@@ -54,8 +53,6 @@ def write_json(path: str | os.PathLike, obj) -> None:
 def read_json(path: str | os.PathLike, fix: str = "delete it to recompute it"):
     """The JSON value in ``path``, or ValueError naming the file and ``fix`` (a damaged or
     truncated file, or one that is not text)."""
-    import json
-
     try:
         return json.loads(Path(path).read_text())
     except (UnicodeDecodeError, json.JSONDecodeError) as err:
