@@ -12,6 +12,13 @@ without ``paper_budget``: the study's budget is the standard 4 M steps). Each tr
 own predictor) over ``--seeds`` seeds and evaluates them at 1.6 and 1.8 m/s. Re-running
 resumes; settings run in the order below.
 
+Two passes: the **primary pass** first trains only what the primary endpoints read (``rl``
+and ``sp_rl`` on reactive) for every setting, under ``OUT/primary/SETTING``; the full pass
+then runs each setting whole under ``OUT/SETTING``. Finished runs and predictors are
+hard-linked between a setting's two folders before each pass runs it, so nothing trains
+twice. ``--no-primary-first`` runs the full pass alone. The summary reads a setting's full
+results where they exist and its primary results otherwise.
+
 The analysis, written down before any of these runs existed:
 
 - **Primary**, per reading R and method m in (rl, sp_rl): E = success at 1.8 m/s on
@@ -26,6 +33,9 @@ The analysis, written down before any of these runs existed:
 from __future__ import annotations
 
 import json
+import os
+import shutil
+from pathlib import Path
 
 from study_io import run_study, study_parser, write_summary
 
@@ -43,19 +53,46 @@ SPEEDS = ("1.6", "1.8")
 SPEED_MPS = 1.8
 PRIMARY_METHODS = ("rl", "sp_rl")
 PAIRS = (("sp_rl", "rl"), ("rnn_rl", "rl"), ("sp_rl", "rnn_rl"))
+PRIMARY_DIR = "primary"
+PRIMARY_BEHAVIORS = ("reactive",)
 
 
-def study_argv(args, setting: tuple[str, ...]) -> list[str]:
-    argv = ["reproduce", "--out", str(args.out / setting_name(setting)), "--methods", *METHODS]
+def study_argv(args, setting: tuple[str, ...], primary: bool = False) -> list[str]:
+    root = args.out / PRIMARY_DIR if primary else args.out
+    methods = PRIMARY_METHODS if primary else METHODS
+    behaviors = PRIMARY_BEHAVIORS if primary else BEHAVIORS
+    argv = ["reproduce", "--out", str(root / setting_name(setting)), "--methods", *methods]
     argv += ["--seeds", str(args.seeds), "--train-steps", str(args.train_steps)]
     argv += ["--episodes", str(args.episodes), "--speeds-mps", *SPEEDS]
-    argv += ["--behaviors", *BEHAVIORS, "--no-table-ii", "--transfer-behaviors"]
+    argv += ["--behaviors", *behaviors, "--no-table-ii", "--transfer-behaviors"]
     argv += ["--no-videos", "--no-fig9", "--no-vmap-seeds"]
     if setting:
         argv += ["--setting", *setting]
     if args.hidden_sizes:
         argv += ["--ppo.hidden-sizes", *map(str, args.hidden_sizes)]
     return argv
+
+
+def other_pass(out: Path) -> Path:
+    """The folder of the same setting in the other pass."""
+    if out.parent.name == PRIMARY_DIR:
+        return out.parent.parent / out.name
+    return out.parent / PRIMARY_DIR / out.name
+
+
+def share_runs(argv: list[str]) -> None:
+    """Hard-link into this command's folder the finished training runs (``done.json``) and
+    predictors (``metrics.json``) that the other pass of its setting already has: the two
+    passes train them under the same setting, network, budget and seeds."""
+    out = Path(argv[argv.index("--out") + 1])
+    other = other_pass(out)
+    done = [p.parent for p in other.glob("runs/*/*/seed*/done.json")]
+    done += [p.parent for p in other.glob("predictors/*/metrics.json")]
+    for src in done:
+        dest = out / src.relative_to(other)
+        if not dest.exists():
+            dest.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copytree(src, dest, copy_function=os.link)
 
 
 def _seeds(results: dict, method: str, behavior: str) -> list[float] | None:
@@ -101,11 +138,15 @@ def _line(r: dict) -> str:
 
 
 def summarize(args) -> dict:
-    by_setting = {}
+    by_setting, primary_only = {}, []
     for setting in SETTINGS:
-        path = args.out / setting_name(setting) / "results.json"
-        if path.exists():
-            by_setting[setting_name(setting)] = json.loads(path.read_text())
+        name = setting_name(setting)
+        for path in (args.out / name, args.out / PRIMARY_DIR / name):
+            if (path / "results.json").exists():
+                by_setting[name] = json.loads((path / "results.json").read_text())
+                if path.parent.name == PRIMARY_DIR:
+                    primary_only.append(name)
+                break
     result = analyse(by_setting)
     lines = [
         f"Primary: each reading's effect on success at {SPEED_MPS} m/s, reactive, against "
@@ -131,21 +172,34 @@ def summarize(args) -> dict:
     lines += ["", f"Readings whose removal of information resolvedly lowers rl: {gives}."]
     pending = [setting_name(s) for s in SETTINGS if setting_name(s) not in by_setting]
     result["pending"] = pending
+    result["primary_pass_only"] = primary_only
     lines += [
         "",
         f"Settings measured: {', '.join(by_setting) or 'none'}; "
         f"still to run: {', '.join(pending) or 'none'}.",
+        f"Measured by the primary pass only (rl and sp_rl on reactive): "
+        f"{', '.join(primary_only) or 'none'}.",
     ]
     write_summary(args.summary_dir, result, lines)
     return result
 
 
-def run(argv: list[str] | None = None) -> int:
+def parser():
     ap = study_parser(__doc__.splitlines()[0], "parity")
     ap.add_argument("--hidden-sizes", type=int, nargs="*", default=None,
                     help="the PPO network (default: the standard setting's)")  # fmt: skip
-    args = ap.parse_args(argv)
-    return run_study(args, [study_argv(args, s) for s in SETTINGS], summarize)
+    ap.add_argument("--no-primary-first", dest="primary_first", action="store_false",
+                    help="skip the primary pass (rl, sp_rl on reactive)")  # fmt: skip
+    return ap
+
+
+def run(argv: list[str] | None = None) -> int:
+    args = parser().parse_args(argv)
+    measured = [s for s in SETTINGS if (args.out / setting_name(s) / "results.json").exists()]
+    first = [s for s in SETTINGS if s not in measured] if args.primary_first else []
+    argvs = [study_argv(args, s, primary=True) for s in first]
+    argvs += [study_argv(args, s) for s in SETTINGS]
+    return run_study(args, argvs, summarize, before=share_runs)
 
 
 if __name__ == "__main__":

@@ -31,15 +31,18 @@ def write_summary(summary_dir: Path, result: dict, lines: list[str]) -> None:
     (summary_dir / "summary.md").write_text("\n".join(lines) + "\n")
 
 
-def run_study(args, argvs: list[list[str]], summarize) -> int:
+def run_study(args, argvs: list[list[str]], summarize, before=None) -> int:
     """Run each ``dyncatch`` command of ``argvs`` in order (cached: a re-run resumes),
     printing it and its estimate, and ``summarize(args)`` after each and at the end;
+    ``before(argv)``, if given, runs first for each command that runs;
     ``--dry-run`` only prints, ``--summarize-only`` only summarises."""
     total = 0.0
     for cmd in () if args.summarize_only else argvs:
         print(" ".join(cmd))
         total += estimate_s(parse(cmd)[1])
         if not args.dry_run:
+            if before is not None:
+                before(cmd)
             if main(cmd) != 0:
                 return 2
             summarize(args)

@@ -79,3 +79,36 @@ def test_a_reading_that_resolvedly_lowers_rl_is_the_one_that_gives_it_its_catch(
     label = "paper_observation, reactive: sp_rl - rl"
     sp_minus_rl = next(r for r in result["secondary"] if r["label"] == label)
     assert sp_minus_rl["difference"] == pytest.approx(0.4)
+
+
+def test_the_primary_pass_runs_first_and_its_finished_runs_are_shared_not_retrained(tmp_path):
+    args = parity_study.parser().parse_args(["--out", str(tmp_path)])
+    primary = parity_study.study_argv(args, ("gamma_held",), primary=True)
+    full = parity_study.study_argv(args, ("gamma_held",))
+    assert primary[primary.index("--out") + 1] == str(tmp_path / "primary" / "gamma_held")
+    assert primary[primary.index("--methods") + 1 : primary.index("--seeds")] == ["rl", "sp_rl"]
+    assert primary[primary.index("--behaviors") + 1] == "reactive"
+    # A finished run and predictor of the full pass appear in the primary pass's folder;
+    # an unfinished run (no done.json) does not, and what is already there is kept.
+    done = tmp_path / "gamma_held" / "runs" / "reactive" / "rl" / "seed0"
+    done.mkdir(parents=True)
+    (done / "done.json").write_text("{}")
+    (done / "checkpoint.safetensors").write_bytes(b"w")
+    partial = tmp_path / "gamma_held" / "runs" / "reactive" / "rl" / "seed1"
+    partial.mkdir(parents=True)
+    (partial / "checkpoint.safetensors").write_bytes(b"p")
+    pred = tmp_path / "gamma_held" / "predictors" / "reactive_self_aware"
+    pred.mkdir(parents=True)
+    (pred / "metrics.json").write_text("{}")
+    mine = tmp_path / "primary" / "gamma_held" / "runs" / "reactive" / "sp_rl" / "seed0"
+    mine.mkdir(parents=True)
+    (mine / "done.json").write_text('{"mine": 1}')
+    parity_study.share_runs(primary)
+    there = tmp_path / "primary" / "gamma_held"
+    assert (there / "runs/reactive/rl/seed0/checkpoint.safetensors").read_bytes() == b"w"
+    assert (there / "predictors/reactive_self_aware/metrics.json").exists()
+    assert not (there / "runs/reactive/rl/seed1").exists()
+    # And back: the full pass receives the primary pass's runs, its own left as they are.
+    parity_study.share_runs(full)
+    back = tmp_path / "gamma_held" / "runs/reactive/sp_rl/seed0/done.json"
+    assert back.read_text() == '{"mine": 1}'
