@@ -64,7 +64,8 @@ def study_argv(args, setting: tuple[str, ...], primary: bool = False) -> list[st
     argv = ["reproduce", "--out", str(root / setting_name(setting)), "--methods", *methods]
     argv += ["--seeds", str(args.seeds), "--train-steps", str(args.train_steps)]
     argv += ["--episodes", str(args.episodes), "--speeds-mps", *SPEEDS]
-    argv += ["--behaviors", *behaviors, "--no-table-ii", "--transfer-behaviors"]
+    argv += ["--behaviors", *behaviors, "--table-i-behaviors", *behaviors]
+    argv += ["--no-table-ii", "--transfer-behaviors"]
     argv += ["--no-videos", "--no-fig9", "--no-vmap-seeds"]
     if setting:
         argv += ["--setting", *setting]

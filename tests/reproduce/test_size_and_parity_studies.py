@@ -7,6 +7,9 @@ from pathlib import Path
 
 import pytest
 
+from dyncatch.cli.main import parse
+from dyncatch.reproduce.validate import validate_plan
+
 _BENCH = Path(__file__).resolve().parents[2] / "benchmarks"
 
 
@@ -88,6 +91,8 @@ def test_the_primary_pass_runs_first_and_its_finished_runs_are_shared_not_retrai
     assert primary[primary.index("--out") + 1] == str(tmp_path / "primary" / "gamma_held")
     assert primary[primary.index("--methods") + 1 : primary.index("--seeds")] == ["rl", "sp_rl"]
     assert primary[primary.index("--behaviors") + 1] == "reactive"
+    for argv in (primary, full):  # both plans pass the reproduction's own checks
+        validate_plan(parse(argv)[1])
     # A finished run and predictor of the full pass appear in the primary pass's folder;
     # an unfinished run (no done.json) does not, and what is already there is kept.
     done = tmp_path / "gamma_held" / "runs" / "reactive" / "rl" / "seed0"
