@@ -86,9 +86,10 @@ def test_a_reading_that_resolvedly_lowers_rl_is_the_one_that_gives_it_its_catch(
 
 def test_the_primary_pass_runs_first_and_its_finished_runs_are_shared_not_retrained(tmp_path):
     args = parity_study.parser().parse_args(["--out", str(tmp_path)])
-    primary = parity_study.study_argv(args, ("gamma_held",), primary=True)
+    primary = parity_study.study_argv(args, ("gamma_held",), primary_seeds=10)
     full = parity_study.study_argv(args, ("gamma_held",))
-    assert primary[primary.index("--out") + 1] == str(tmp_path / "primary" / "gamma_held")
+    assert primary[primary.index("--out") + 1] == str(tmp_path / "primary_s10" / "gamma_held")
+    assert primary[primary.index("--seeds") + 1] == "10"
     assert primary[primary.index("--methods") + 1 : primary.index("--seeds")] == ["rl", "sp_rl"]
     assert primary[primary.index("--behaviors") + 1] == "reactive"
     for argv in (primary, full):  # both plans pass the reproduction's own checks
@@ -100,16 +101,19 @@ def test_the_primary_pass_runs_first_and_its_finished_runs_are_shared_not_retrai
     (done / "done.json").write_text("{}")
     (done / "checkpoint.safetensors").write_bytes(b"w")
     partial = tmp_path / "gamma_held" / "runs" / "reactive" / "rl" / "seed1"
+    beyond = tmp_path / "primary_s10" / "gamma_held" / "runs" / "reactive" / "rl" / "seed7"
+    beyond.mkdir(parents=True)
+    (beyond / "done.json").write_text("{}")
     partial.mkdir(parents=True)
     (partial / "checkpoint.safetensors").write_bytes(b"p")
     pred = tmp_path / "gamma_held" / "predictors" / "reactive_self_aware"
     pred.mkdir(parents=True)
     (pred / "metrics.json").write_text("{}")
-    mine = tmp_path / "primary" / "gamma_held" / "runs" / "reactive" / "sp_rl" / "seed0"
+    mine = tmp_path / "primary_s10" / "gamma_held" / "runs" / "reactive" / "sp_rl" / "seed0"
     mine.mkdir(parents=True)
     (mine / "done.json").write_text('{"mine": 1}')
     parity_study.share_runs(primary)
-    there = tmp_path / "primary" / "gamma_held"
+    there = tmp_path / "primary_s10" / "gamma_held"
     assert (there / "runs/reactive/rl/seed0/checkpoint.safetensors").read_bytes() == b"w"
     assert (there / "predictors/reactive_self_aware/metrics.json").exists()
     assert not (there / "runs/reactive/rl/seed1").exists()
@@ -117,3 +121,5 @@ def test_the_primary_pass_runs_first_and_its_finished_runs_are_shared_not_retrai
     parity_study.share_runs(full)
     back = tmp_path / "gamma_held" / "runs/reactive/sp_rl/seed0/done.json"
     assert back.read_text() == '{"mine": 1}'
+    # The full pass trains 5 seeds: seed 7 of the 10-seed pass is not its to hold.
+    assert not (tmp_path / "gamma_held" / "runs/reactive/rl/seed7").exists()
