@@ -29,7 +29,7 @@ from dyncatch.sim.behaviors.evader_net import EVADER_CHECKPOINT
 from dyncatch.sim.config import WorldCfg
 from tests.sim.test_vec import PRODUCTION_CODEGEN
 
-TINY = PPOCfg(num_envs=16, num_steps=8, num_minibatches=2, update_epochs=1, hidden_sizes=(16,))
+TINY = PPOCfg(num_envs=8, num_steps=8, num_minibatches=2, update_epochs=1, hidden_sizes=(16,))
 WORLD = WorldCfg().with_speed(1.6)
 
 
