@@ -36,8 +36,10 @@ TINY = [
     "--predictor-updates", "20",
     "--table-ii-budgets", "2500",
     "--table-ii-eval-steps", "2500",
-    "--ppo.num-envs", "16",
-    "--ppo.num-steps", "16",
+    # 8 environments (one iteration of 8 x 32): the gated reset and arm step trace one
+    # compact sub-batch besides the whole batch, not two as with 16.
+    "--ppo.num-envs", "8",
+    "--ppo.num-steps", "32",
     "--ppo.num-minibatches", "2",
     "--ppo.update-epochs", "1",
     "--ppo.hidden-sizes", "16",

@@ -22,7 +22,7 @@ from dyncatch.sim.behaviors.learned import EVADER_OBS_DIM, evader_net
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.validate import validate_world
 
-TINY = PPOCfg(num_envs=16, num_steps=8, num_minibatches=2, update_epochs=1, hidden_sizes=(16,))
+TINY = PPOCfg(num_envs=8, num_steps=8, num_minibatches=2, update_epochs=1, hidden_sizes=(16,))
 WORLD = WorldCfg().with_speed(1.6)
 
 
@@ -125,7 +125,7 @@ class TestTrainEvader:
             world.replace(target=world.target.replace(evader_checkpoint=str(cfg.out)))
         )
         net = evader_net(world)
-        assert net.header["against"] == ["pursuit"] and net.header["env_steps"] == 256
+        assert net.header["against"] == ["pursuit"] and net.header["env_steps"] == 128  # 2 x 8 x 8
         assert [k.shape for k, _ in net.layers] == [(EVADER_OBS_DIM, 16), (16, 1)]
         # An episode through the ordinary step, twice from one key: the same trajectory.
         run = jax.jit(lambda key: _episode(key, world))
@@ -184,9 +184,9 @@ def test_cli_trains(tmp_path):
             "--out",
             str(out),
             "--ppo.num-envs",
-            "16",
-            "--ppo.num-steps",
             "8",
+            "--ppo.num-steps",
+            "16",
             "--ppo.hidden-sizes",
             "8",
         ]

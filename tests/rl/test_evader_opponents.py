@@ -15,14 +15,21 @@ from dyncatch.predictor.checkpoint import save as save_predictor
 from dyncatch.predictor.config import PredictorCfg
 from dyncatch.predictor.model import Predictor
 from dyncatch.rl.config import PPOCfg
-from dyncatch.rl.evader import evader_env, stack_groups
-from dyncatch.rl.evader_train import EvaderTrainCfg, load_pursuer, train_evader
+from dyncatch.rl.evader import evader_env, split_arrays, stack_groups
+from dyncatch.rl.evader_train import (
+    EvaderTrainCfg,
+    evader_iterate,
+    load_pursuer,
+    train_evader,
+)
 from dyncatch.rl.policy import load_run
 from dyncatch.rl.runner import TrainRunCfg, TrainRunner
+from dyncatch.rl.train import make_train
 from dyncatch.sim.behaviors.evader_net import EVADER_CHECKPOINT
 from dyncatch.sim.config import WorldCfg
+from tests.sim.test_vec import PRODUCTION_CODEGEN
 
-TINY = PPOCfg(num_envs=16, num_steps=8, num_minibatches=2, update_epochs=1, hidden_sizes=(16,))
+TINY = PPOCfg(num_envs=8, num_steps=8, num_minibatches=2, update_epochs=1, hidden_sizes=(16,))
 WORLD = WorldCfg().with_speed(1.6)
 
 
@@ -46,6 +53,11 @@ def _one_iteration_run(out, method: str = "rl", predictor=None, seed: int = 0):
 @pytest.fixture(scope="module")
 def pursuer_run(tmp_path_factory):
     return _one_iteration_run(tmp_path_factory.mktemp("pursuer"))
+
+
+@pytest.fixture(scope="module")
+def second_seed(tmp_path_factory):
+    return _one_iteration_run(tmp_path_factory.mktemp("seed1"), seed=1)
 
 
 def _rollout(env, key, steps: int = 40):
@@ -95,15 +107,62 @@ class TestMixAtWeightOne:
         assert float(jnp.abs(a - b).max()) > 0.05
 
 
-def test_seeds_of_one_method_run_stacked(pursuer_run, tmp_path):
+def test_seeds_of_one_method_run_stacked(pursuer_run, second_seed):
     """Two seeds of rl run as one stacked network (the scripted pursuers alone): each seed
     alone at weight 1, and its own carry and command."""
-    seeds = [load_run(pursuer_run).policy, load_run(_one_iteration_run(tmp_path, seed=1)).policy]
+    seeds = [load_run(pursuer_run).policy, load_run(second_seed).policy]
     both = [seeds[0], pursuit_policy(WORLD), seeds[1], intercept_policy(WORLD)]
     assert stack_groups(evader_env(WORLD, both).pursuers) == [[0, 2], [1], [3]]
     for i in (0, 2):
         weights = tuple(float(j == i) for j in range(4))
         _same_episodes(evader_env(WORLD, both, weights=weights), evader_env(WORLD, both[i]), (0,))
+
+
+class TestWeightsAsArguments:
+    """The evader's trainer passes the pursuers' weights to its jitted iteration as arguments
+    (``rl.evader.split_arrays``), so that one program serves every pursuer of one structure,
+    changing no number."""
+
+    def test_two_seeds_share_one_program(self, pursuer_run, second_seed):
+        (w0, s0), (w1, s1) = (
+            split_arrays(evader_env(WORLD, load_run(run).policy))
+            for run in (pursuer_run, second_seed)
+        )
+        assert s0 == s1 and hash(s0) == hash(s1)  # the static argument: one jit cache entry
+        assert len(w0) == len(w1) > 0
+        assert any(not np.array_equal(a, b) for a, b in zip(w0, w1, strict=True))
+        other = split_arrays(evader_env(WORLD.with_speed(1.2), load_run(pursuer_run).policy))
+        assert other[1] != s0  # the world is part of the program
+
+    def test_episodes_equal_the_weights_compiled_in_bit_for_bit(self, pursuer_run):
+        env = evader_env(WORLD, load_run(pursuer_run).policy)
+        weights, skeleton = split_arrays(env)
+        # The closed-over rollout is TestMixAtWeightOne's program (the persistent compilation
+        # cache serves it); a key is data.
+        closed = jax.jit(lambda k: _rollout(env, k))
+        passed = jax.jit(lambda w, k: _rollout(skeleton.fill(w), k))
+        for seed in (0, 1):
+            key = jax.random.key(seed)
+            for x, y in zip(closed(key), passed(weights, key), strict=True):
+                np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+
+    @pytest.mark.extended
+    def test_an_iteration_equals_the_closed_over_one_bit_for_bit(self, pursuer_run):
+        """With the library's code generation (``make test``'s older fusion emitters round
+        the PPO update of the two programs differently, by about 1e-8, not the episodes)."""
+        env = evader_env(WORLD, load_run(pursuer_run).policy)
+        weights, skeleton = split_arrays(env)
+        init, iterate, _ = make_train(env, TINY)
+        ts = jax.jit(init)(jax.random.key(0))
+        closed = jax.jit(iterate).lower(ts).compile(compiler_options=PRODUCTION_CODEGEN)(ts)
+        lowered = evader_iterate.lower(weights, ts, skeleton=skeleton, ppo=TINY)
+        passed = lowered.compile(compiler_options=PRODUCTION_CODEGEN)(weights, ts)
+        for x, y in zip(jax.tree.leaves(closed[1]), jax.tree.leaves(passed[1]), strict=True):
+            np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+        for x, y in zip(
+            jax.tree.leaves(closed[0].params), jax.tree.leaves(passed[0].params), strict=True
+        ):
+            np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
 
 
 def test_predictor_and_ground_truth_runs_mix(tmp_path):

@@ -11,7 +11,7 @@ from dyncatch.rl.runner import TrainRunCfg, TrainRunner
 from dyncatch.sim.config import WorldCfg
 from dyncatch.utils.tree_io import load_tree
 
-PPO = PPOCfg(num_envs=16, num_steps=8, num_minibatches=2, update_epochs=1, hidden_sizes=(16,))
+PPO = PPOCfg(num_envs=8, num_steps=8, num_minibatches=2, update_epochs=1, hidden_sizes=(16,))
 
 
 def test_non_finite_parts_names_parameters_and_metrics():

@@ -10,7 +10,7 @@ from dyncatch.sim.config import WorldCfg
 from dyncatch.utils.tree_io import TreeFileError, load_fields, load_tree, save_tree
 
 WORLD = WorldCfg().with_behavior("bounce")
-PPO = PPOCfg(num_envs=16, num_steps=8, num_minibatches=2, update_epochs=2, hidden_sizes=(32,))
+PPO = PPOCfg(num_envs=8, num_steps=8, num_minibatches=2, update_epochs=2, hidden_sizes=(32,))
 
 
 @pytest.fixture(scope="module")

@@ -16,10 +16,12 @@ trainer observes it from the step before, without it.
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from flax import struct
 
 from dyncatch.policies.api import as_recurrent
@@ -98,6 +100,36 @@ class StaticPolicy:
 def stack(trees: list) -> Any:
     """Pytrees of one structure as one, each leaf stacked on a new leading axis."""
     return jax.tree.map(lambda *xs: jnp.stack(xs), *trees)
+
+
+@dataclasses.dataclass(frozen=True)
+class Skeleton:
+    """A pytree less its array leaves, hashable: ``split_arrays``'s static half."""
+
+    treedef: Any
+    statics: tuple
+    """Per leaf: ``(type, value)`` of a leaf that is not an array (its type too, so that
+    ``1`` and ``1.0``, equal as keys, trace apart), None where an array goes."""
+
+    def fill(self, arrays: tuple) -> Any:
+        """The pytree with ``arrays`` (in leaf order) where its arrays were."""
+        it = iter(arrays)
+        leaves = [next(it) if s is None else s[1] for s in self.statics]
+        return jax.tree.unflatten(self.treedef, leaves)
+
+
+def split_arrays(tree: Any) -> tuple[tuple, Skeleton]:
+    """``tree``'s array leaves and the rest (``Skeleton.fill`` joins them again). A jitted
+    function that takes the arrays as arguments and the skeleton as a static argument builds
+    one program for every tree of one skeleton: an ``EvaderEnv``'s frozen pursuers' weights
+    are then not compiled in as constants, and the seeds and rounds of a self-play study
+    share the evader's training program. Python scalars (the world's configuration) stay
+    constants, as they were when the environment was closed over."""
+    leaves, treedef = jax.tree.flatten(tree)
+    is_array = [isinstance(x, jax.Array | np.ndarray) for x in leaves]
+    arrays = tuple(x for x, a in zip(leaves, is_array, strict=True) if a)
+    statics = tuple(None if a else (type(x), x) for x, a in zip(leaves, is_array, strict=True))
+    return arrays, Skeleton(treedef, statics)
 
 
 def stack_groups(pursuers: tuple) -> list[list[int]]:
