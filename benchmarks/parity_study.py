@@ -31,6 +31,18 @@ The analysis, written down before any of these runs existed:
   resolved after Holm.
 - **Secondary**, per setting and behaviour at 1.8 m/s: ``sp_rl - rl`` (does the predictor
   hold), ``rnn_rl - rl`` and ``sp_rl - rnn_rl`` (does memory do what it does), Welch.
+
+Added after the 5-seed primary pass, before any run of what they add (the analysis above is
+unchanged; the added settings join its Holm family):
+
+- ``success_every_step`` alone: the issue lists it among the readings, and it made rl score
+  0.00 in the earlier fidelity study (2 seeds, 2 M steps).
+- ``LITERAL_WITHOUT_ARM``, the literal combination without ``arm_on_sighting``, labelled
+  exploratory: under ``arm_on_sighting`` no method and no planner catches at 1.6-1.8 m/s
+  (rl, sp_rl, pursuit and intercept all 0.00-0.01), so the literal combination cannot tell
+  methods apart.
+- The 10-seed pass runs a setting only where its 5-seed effect on rl or sp_rl missed the
+  half-width target (0.15), and always for ``default``, the baseline.
 """
 
 from __future__ import annotations
@@ -49,7 +61,11 @@ from dyncatch.reproduce.readings import PAPER_LITERAL, setting_name
 READINGS = ("gamma_held", "paper_observation", "fov_half_angle", "beta_heading",
             "arm_on_sighting")  # fmt: skip
 LITERAL_AT_BUDGET = tuple(r for r in PAPER_LITERAL if r != "paper_budget")
-SETTINGS = ((), *((r,) for r in READINGS), LITERAL_AT_BUDGET)
+LITERAL_WITHOUT_ARM = tuple(r for r in LITERAL_AT_BUDGET if r != "arm_on_sighting")
+SETTINGS = ((), *((r,) for r in READINGS), LITERAL_AT_BUDGET, ("success_every_step",),
+            LITERAL_WITHOUT_ARM)  # fmt: skip
+EXPLORATORY = (setting_name(LITERAL_WITHOUT_ARM),)
+HALF_WIDTH_TARGET = 0.15
 METHODS = ("rl", "sp_rl", "gt_rl", "rnn_rl")
 BEHAVIORS = ("reactive", "random_reactive")
 SPEEDS = ("1.6", "1.8")
@@ -151,12 +167,19 @@ def analyse(by_setting: dict[str, dict], primary_by_setting: dict[str, dict] | N
     return {"primary": primary, "secondary": secondary, "gives_rl_its_catch": gives}
 
 
+def _label(name: str) -> str:
+    return f"{name} (exploratory)" if name in EXPLORATORY else name
+
+
 def _line(r: dict) -> str:
     lo, hi = r["ci95"]
     return f"{r['difference']:+.3f} [{lo:+.3f}, {hi:+.3f}] | {r['half_width']:.3f}"
 
 
-def summarize(args) -> dict:
+def collect(args) -> tuple[dict, dict, list[str], dict]:
+    """Per setting: the results the secondary analysis reads (the full pass's, else a primary
+    pass's), those the primary reads (the most seeds), the settings measured by a primary
+    pass only, and the folder each primary effect is read from."""
     by_setting, by_seeds, primary_only, sources = {}, {}, [], {}
     for setting in SETTINGS:
         name = setting_name(setting)
@@ -171,6 +194,22 @@ def summarize(args) -> dict:
         most = max(found, key=lambda p: read[p]["plan"]["seeds"] if "plan" in read[p] else 0)
         by_seeds[name] = read[most]
         sources[name] = str(most.relative_to(args.out))
+    return by_setting, by_seeds, primary_only, sources
+
+
+def needs_more_seeds(args, setting: tuple[str, ...]) -> bool:
+    """Whether a later primary pass runs ``setting``: always for ``default`` and for a setting
+    not yet measured; else where its effect on rl or sp_rl missed ``HALF_WIDTH_TARGET``."""
+    if not setting:
+        return True
+    by_setting, by_seeds, _, _ = collect(args)
+    rows = [r for r in analyse(by_setting, by_seeds)["primary"]
+            if r["setting"] == setting_name(setting)]  # fmt: skip
+    return not rows or any(r["half_width"] > HALF_WIDTH_TARGET for r in rows)
+
+
+def summarize(args) -> dict:
+    by_setting, by_seeds, primary_only, sources = collect(args)
     result = analyse(by_setting, by_seeds)
     result["primary_sources"] = sources
     lines = [
@@ -181,7 +220,8 @@ def summarize(args) -> dict:
         "|---|---|---|---:|---:|---|",
     ]
     lines += [
-        f"| {r['setting']} | {r['method']} | {_line(r)} | {r['p_holm']:.3f} | {r['verdict']} |"
+        f"| {_label(r['setting'])} | {r['method']} | {_line(r)} | {r['p_holm']:.3f} "
+        f"| {r['verdict']} |"
         for r in result["primary"]
     ]
     lines += ["", f"Secondary: differences between methods at {SPEED_MPS} m/s.", ""]
@@ -223,15 +263,22 @@ def parser():
 
 def run(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
+    return run_study(args, passes(args), summarize, before=share_runs)
+
+
+def passes(args):
+    """The commands in order, each decided when its turn comes (``needs_more_seeds`` reads
+    the passes before it): the primary passes, then the full pass."""
     measured = [s for s in SETTINGS if (args.out / setting_name(s) / "results.json").exists()]
-    argvs = [
-        study_argv(args, s, primary_seeds=n)
-        for n in args.primary_seeds
-        for s in SETTINGS
-        if n > args.seeds or s not in measured  # a full pass already holds these seeds
-    ]
-    argvs += [study_argv(args, s) for s in SETTINGS]
-    return run_study(args, argvs, summarize, before=share_runs)
+    for i, n in enumerate(args.primary_seeds):
+        for s in SETTINGS:
+            if n <= args.seeds and s in measured:
+                continue  # the full pass already holds these seeds
+            if i > 0 and not needs_more_seeds(args, s):
+                continue
+            yield study_argv(args, s, primary_seeds=n)
+    for s in SETTINGS:
+        yield study_argv(args, s)
 
 
 if __name__ == "__main__":
