@@ -224,6 +224,12 @@ def summarize(args) -> dict:
         f"| {r['verdict']} |"
         for r in result["primary"]
     ]
+    lines += ["", f"Per-seed success at {SPEED_MPS} m/s on reactive (what the primary reads).", ""]
+    lines += ["| setting | seeds | " + " | ".join(PRIMARY_METHODS) + " |", "|---|---:|---|---|"]
+    for name, res in by_seeds.items():
+        per = [_seeds(res, m, "reactive") or [] for m in PRIMARY_METHODS]
+        cells = " | ".join(", ".join(f"{x:.2f}" for x in v) for v in per)
+        lines.append(f"| {_label(name)} | {max(map(len, per))} | {cells} |")
     lines += ["", f"Secondary: differences between methods at {SPEED_MPS} m/s.", ""]
     lines += [
         "| setting | behaviour | pair | difference [95 % CI] | half-width |",
