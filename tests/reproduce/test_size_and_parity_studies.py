@@ -144,3 +144,20 @@ def test_the_ten_seed_pass_runs_only_where_five_seeds_missed_the_half_width(tmp_
     assert "default" in names and "beta_heading" in names  # the baseline, and the wide one
     assert "gamma_held" not in names  # met the target at 5 seeds
     assert "paper_observation" in names  # not measured yet: not decided against
+
+
+def test_the_full_pass_skips_a_setting_where_no_primary_run_catches(tmp_path):
+    import json
+
+    args = parity_study.parser().parse_args(["--out", str(tmp_path), "--primary-seeds"])
+    methods, behaviors = parity_study.PRIMARY_METHODS, parity_study.PRIMARY_BEHAVIORS
+    for name, level in (("default", 0.9), ("arm_on_sighting", 0.0), ("gamma_held", 0.03)):
+        res = _results(methods, behaviors, lambda m, b, level=level: level)
+        for cell in res["table_i"]["cells"]:
+            cell["per_seed_success"] = [level] * 4 + [level / 2]
+        folder = tmp_path / "primary_s5" / name
+        folder.mkdir(parents=True)
+        (folder / "results.json").write_text(json.dumps({**res, "plan": {"seeds": 5}}))
+    full = [a[a.index("--out") + 1].split("/")[-1] for a in parity_study.passes(args)]
+    assert "arm_on_sighting" not in full
+    assert {"default", "gamma_held", "paper_observation"} <= set(full)  # 0.03 is a catch
