@@ -42,7 +42,8 @@ unchanged; the added settings join its Holm family):
   (rl, sp_rl, pursuit and intercept all 0.00-0.01), so the literal combination cannot tell
   methods apart.
 - The 10-seed pass runs a setting only where its 5-seed effect on rl or sp_rl missed the
-  half-width target (0.15), and always for ``default``, the baseline.
+  half-width target (0.15), and always for ``default``, the baseline; ``default`` first,
+  then the widest half-width first.
 - The full pass skips a setting under which no primary run catches (every rl and sp_rl
   seed at most ``NO_CATCH`` at 1.8 m/s on reactive): its secondary differences would compare
   zeros. Decided before the full pass of any such setting ran (``arm_on_sighting`` and the
@@ -52,6 +53,7 @@ unchanged; the added settings join its Holm family):
 from __future__ import annotations
 
 import json
+import math
 import os
 import shutil
 from pathlib import Path
@@ -202,15 +204,26 @@ def collect(args) -> tuple[dict, dict, list[str], dict]:
     return by_setting, by_seeds, primary_only, sources
 
 
-def needs_more_seeds(args, setting: tuple[str, ...]) -> bool:
+def primary_widths(args) -> dict[str, float]:
+    """Per measured setting, the larger half-width of its effects on rl and sp_rl."""
+    by_setting, by_seeds, _, _ = collect(args)
+    widths: dict[str, float] = {}
+    for r in analyse(by_setting, by_seeds)["primary"]:
+        widths[r["setting"]] = max(widths.get(r["setting"], 0.0), r["half_width"])
+    return widths
+
+
+def needs_more_seeds(setting: tuple[str, ...], widths: dict[str, float]) -> bool:
     """Whether a later primary pass runs ``setting``: always for ``default`` and for a setting
     not yet measured; else where its effect on rl or sp_rl missed ``HALF_WIDTH_TARGET``."""
-    if not setting:
-        return True
-    by_setting, by_seeds, _, _ = collect(args)
-    rows = [r for r in analyse(by_setting, by_seeds)["primary"]
-            if r["setting"] == setting_name(setting)]  # fmt: skip
-    return not rows or any(r["half_width"] > HALF_WIDTH_TARGET for r in rows)
+    width = widths.get(setting_name(setting))
+    return not setting or width is None or width > HALF_WIDTH_TARGET
+
+
+def later_pass_order(widths: dict[str, float]) -> list[tuple[str, ...]]:
+    """A later primary pass's order: ``default`` (the baseline), the settings not yet
+    measured, then the widest effect first."""
+    return sorted(SETTINGS, key=lambda s: (bool(s), -widths.get(setting_name(s), math.inf)))
 
 
 def catches_nothing(args, setting: tuple[str, ...]) -> bool:
@@ -292,10 +305,11 @@ def passes(args):
     the passes before it): the primary passes, then the full pass."""
     measured = [s for s in SETTINGS if (args.out / setting_name(s) / "results.json").exists()]
     for i, n in enumerate(args.primary_seeds):
-        for s in SETTINGS:
+        widths = primary_widths(args) if i > 0 else {}
+        for s in later_pass_order(widths) if i > 0 else SETTINGS:
             if n <= args.seeds and s in measured:
                 continue  # the full pass already holds these seeds
-            if i > 0 and not needs_more_seeds(args, s):
+            if i > 0 and not needs_more_seeds(s, widths):
                 continue
             yield study_argv(args, s, primary_seeds=n)
     for s in SETTINGS:

@@ -144,6 +144,8 @@ def test_the_ten_seed_pass_runs_only_where_five_seeds_missed_the_half_width(tmp_
     assert "default" in names and "beta_heading" in names  # the baseline, and the wide one
     assert "gamma_held" not in names  # met the target at 5 seeds
     assert "paper_observation" in names  # not measured yet: not decided against
+    assert names[0] == "default"  # the baseline first, the wide one before the unmeasured
+    assert names.index("paper_observation") < names.index("beta_heading")
 
 
 def test_the_full_pass_skips_a_setting_where_no_primary_run_catches(tmp_path):
