@@ -43,7 +43,7 @@ unchanged; the added settings join its Holm family):
   methods apart.
 - The 10-seed pass runs a setting only where its 5-seed effect on rl or sp_rl missed the
   half-width target (0.15), and always for ``default``, the baseline; ``default`` first,
-  then the widest half-width first.
+  then settings not yet measured, then the widest half-width first.
 - The full pass skips a setting under which no primary run catches (every rl and sp_rl
   seed at most ``NO_CATCH`` at 1.8 m/s on reactive): its secondary differences would compare
   zeros. Decided before the full pass of any such setting ran (``arm_on_sighting`` and the
