@@ -163,3 +163,23 @@ def test_the_full_pass_skips_a_setting_where_no_primary_run_catches(tmp_path):
     full = [a[a.index("--out") + 1].split("/")[-1] for a in parity_study.passes(args)]
     assert "arm_on_sighting" not in full
     assert {"default", "gamma_held", "paper_observation"} <= set(full)  # 0.03 is a catch
+
+
+def test_the_full_pass_runs_first_the_setting_that_resolvedly_lowers_rl(tmp_path):
+    import json
+
+    args = parity_study.parser().parse_args(["--out", str(tmp_path), "--primary-seeds"])
+    methods, behaviors = parity_study.PRIMARY_METHODS, parity_study.PRIMARY_BEHAVIORS
+    levels = {"default": (0.9, 0.9), "gamma_held": (0.9, 0.9), "success_every_step": (0.0, 0.8)}
+    for name, (rl, sp_rl) in levels.items():
+        res = _results(methods, behaviors, lambda m, b, lv=(rl, sp_rl): lv[m == "sp_rl"])
+        folder = tmp_path / "primary_s5" / name
+        folder.mkdir(parents=True)
+        (folder / "results.json").write_text(json.dumps({**res, "plan": {"seeds": 5}}))
+    full = [a[a.index("--out") + 1].split("/")[-1] for a in parity_study.passes(args)]
+    # rl at 0.0 against 0.9 (seed spread 0.04) is resolved after Holm; sp_rl still catches
+    assert full[:3] == ["default", "success_every_step", "gamma_held"]
+    assert len(full) == len(parity_study.SETTINGS)  # nothing here catches nothing
+    summary = parity_study.summarize(parity_study.parser().parse_args(
+        ["--out", str(tmp_path), "--summary-dir", str(tmp_path / "summary")]))  # fmt: skip
+    assert "default" in summary["pending"] and "success_every_step" in summary["pending"]
