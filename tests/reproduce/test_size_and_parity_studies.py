@@ -183,3 +183,34 @@ def test_the_full_pass_runs_first_the_setting_that_resolvedly_lowers_rl(tmp_path
     summary = parity_study.summarize(parity_study.parser().parse_args(
         ["--out", str(tmp_path), "--summary-dir", str(tmp_path / "summary")]))  # fmt: skip
     assert "default" in summary["pending"] and "success_every_step" in summary["pending"]
+
+
+def test_the_speed_profile_reads_the_folder_with_most_seeds_and_averages_over_them(tmp_path):
+    import json
+
+    profile = _load("speed_profile")
+    study = tmp_path / "study"
+    for folder, seeds in (("success_every_step", 5), ("primary_s10/success_every_step", 10)):
+        (study / folder).mkdir(parents=True)
+        (study / folder / "plan.json").write_text(json.dumps({"seeds": seeds}))
+    assert profile.setting_folder(study, "success_every_step").parent.name == "primary_s10"
+    with pytest.raises(FileNotFoundError, match="run the study"):
+        profile.setting_folder(study, "gamma_held")
+    args = profile.parser().parse_args(["--study", str(study), "--out", str(tmp_path / "out"),
+                                        "--summary-dir", str(tmp_path / "sum"),
+                                        "--settings", "success_every_step",
+                                        "--speeds", "0.4", "0.8"])  # fmt: skip
+    for seed, (slow, fast) in enumerate(((1.0, 0.2), (1.0, 0.4), (0.7, 0.0))):
+        out = tmp_path / "out" / "success_every_step" / "rl" / f"seed{seed}.json"
+        out.parent.mkdir(parents=True, exist_ok=True)
+        rows = [{"speed_mps": 0.4, "success_rate": slow}, {"speed_mps": 0.8, "success_rate": fast}]
+        out.write_text(json.dumps({"rows": rows}))
+    result = profile.summarize(args)
+    by_speed = {r["speed_mps"]: r for r in result["rows"]}
+    assert by_speed[0.4]["mean"] == pytest.approx(0.9) and by_speed[0.8]["mean"] == pytest.approx(
+        0.2
+    )
+    # t(2, 0.975) = 4.303, sd 0.2 over 3 seeds: half-width 4.303 * 0.2 / sqrt(3) = 0.4969
+    lo, hi = by_speed[0.8]["ci95"]
+    assert hi - 0.2 == pytest.approx(4.302653 * 0.2 / 3**0.5, rel=1e-5)
+    assert by_speed[0.8]["per_seed"] == [0.2, 0.4, 0.0]
