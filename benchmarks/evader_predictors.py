@@ -30,6 +30,7 @@ import json
 import time
 from pathlib import Path
 
+import numpy as np
 from study_io import write_summary
 
 from dyncatch.cli.main import main
@@ -171,12 +172,13 @@ def summarize(args) -> dict:
         f"{args.speed_max_mps:g}) m/s; evaders {'sampled' if args.sample else 'deterministic'}."
         " Mean over predictor seeds [95 % t-interval].",
         "",
-        "| target | seeds | vanilla | self_aware | vanilla - self_aware |",
-        "|---|---:|---:|---:|---:|",
+        "| target | seeds | vanilla | self_aware | vanilla - self_aware | samples: train, eval |",
+        "|---|---:|---:|---:|---:|---:|",
     ]
     for r in rows:
         cols = [_fmt(r[k]) for k in (*KINDS, "vanilla_minus_self_aware")]
-        lines.append(f"| {r['target']} | {r['seeds']} | {' | '.join(cols)} |")
+        samples = f"{np.mean(r['train_samples']):.0f}, {np.mean(r['eval_samples']):.0f}"
+        lines.append(f"| {r['target']} | {r['seeds']} | {' | '.join(cols)} | {samples} |")
     if walls:
         lines += ["", f"Wall time per cell: {min(walls):.0f}-{max(walls):.0f} s."]
     write_summary(args.summary_dir, result, lines)
