@@ -11,7 +11,8 @@ each evader of ``--evaders`` (a run folder of ``dyncatch evader train`` under
 evaders' training world (``rl.evader_train.EVADER_WORLD``: the default world with the speed
 cap drawn per episode in [1.4, 1.8] m/s; ``--speed-min-mps``/``--speed-max-mps``), so the
 reactive row is the comparison at the evaders' speeds, not Table II's standard row (caps in
-[0, 1.8]). ``--sample`` runs the evaders sampling their turns (``--world.target.evader-sample``).
+[0, 1.8]). ``--sample`` runs the evaders sampling their turns (``--world.target.evader-sample``;
+only evaders whose file records the action std: of ``EVADERS``, the three ``_s0`` ones).
 
 Cached and resumable: a cell is a folder ``OUT/{target}/seed{s}`` holding the table's files
 and ``argv.json`` (the command that made it), written last; a re-run skips finished cells and
