@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import csv
 import json
 
 from dyncatch.cli.main import main
 from dyncatch.predictor import checkpoint
+from dyncatch.sim.behaviors.evader_net import EVADER_CHECKPOINT, save_evader
+
+from ..sim.helpers import away_net
 
 TINY = ["--train.updates", "200", "--train.log-every", "100", "--eval-steps", "2500"]
 
@@ -32,7 +36,9 @@ def test_table_json_has_one_row_per_cell(tmp_path, capsys):
     rows = json.loads(capsys.readouterr().out)["rows"]
     cells = {(r["behavior"], r["kind"], r["budget_steps"]) for r in rows}
     assert cells == {("circle", k, n) for k in ("vanilla", "self_aware") for n in (6250, 12500)}
-    assert all(set(r) == {"behavior", "kind", "budget_steps", "error_mps"} for r in rows)
+    keys = {"behavior", "behavior_params", "kind", "budget_steps", "error_mps"}
+    assert all(set(r) == keys for r in rows)
+    assert rows[0]["behavior_params"] == {"circle_radius_m": 5.0}
     assert all(0 <= r["error_mps"] < 5 for r in rows)
     assert {p.name for p in tmp_path.iterdir()} == {"table_ii.md", "table_ii.csv", "table_ii.png"}
 
@@ -42,3 +48,34 @@ def test_a_budget_below_one_episode_is_a_one_line_error(tmp_path, capsys):
     assert main(argv) == 2
     err = capsys.readouterr().err.strip()
     assert "budget 10 steps is below one episode (125)" in err and "\n" not in err
+
+
+class TestLearnedEvader:
+    """A predictor of a ``learned`` evader names the evader file its data came from: two
+    evaders share the behaviour name, so the name alone does not say what it learned."""
+
+    def test_train_records_the_evader(self, tmp_path, capsys):
+        evader = str(save_evader(tmp_path / EVADER_CHECKPOINT, away_net()))
+        out = tmp_path / "run"
+        argv = ["predictor", "train", "--behavior", "learned", "--kind", "vanilla"]
+        argv += ["--world.target.evader-checkpoint", evader, "--steps", "12500"]
+        assert main([*argv, "--hidden", "16", "--out", str(out), *TINY]) == 0
+        metrics = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+        want = {"evader_checkpoint": evader, "evader_sample": False}
+        assert metrics["behavior"] == "learned" and metrics["behavior_params"] == want
+        assert checkpoint.read_info(out / "predictor.safetensors")["behavior_params"] == want
+        assert metrics["train_samples"] > 0 and 0 <= metrics["error_mps"] < 5
+
+    def test_table_rows_and_csv_name_the_evader(self, tmp_path, capsys):
+        evader = str(save_evader(tmp_path / EVADER_CHECKPOINT, away_net()))
+        argv = ["predictor", "table", "--json", "--behaviors", "learned", "--budgets", "6250"]
+        argv += ["--world.target.evader-checkpoint", evader, "--world.target.evader-sample"]
+        assert main([*argv, "--out", str(tmp_path / "t"), *TINY]) == 2  # the net has no std
+        assert "evader_sample" in capsys.readouterr().err
+        argv = argv[:-1]
+        assert main([*argv, "--out", str(tmp_path / "t"), *TINY]) == 0
+        rows = json.loads(capsys.readouterr().out)["rows"]
+        want = {"evader_checkpoint": evader, "evader_sample": False}
+        assert [r["behavior_params"] for r in rows] == [want, want]
+        with (tmp_path / "t" / "table_ii.csv").open() as f:
+            assert [json.loads(r["behavior_params"]) for r in csv.DictReader(f)] == [want, want]

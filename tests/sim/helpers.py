@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import math
 from functools import partial
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from dyncatch.sim import env
 from dyncatch.sim.base import command_high, command_low
+from dyncatch.sim.behaviors.evader_net import EvaderNet
+from dyncatch.sim.behaviors.learned import EVADER_OBS_DIM, FEATURE_NAMES
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.frame import in_scene_frame, recentre
 from dyncatch.sim.state import EnvState
@@ -96,4 +100,19 @@ def obstacles(boxes=(), cylinders=(), period_m: float = 0.0):
         jnp.asarray(radius, f32),
         jnp.asarray(period_m, f32),
         jnp.zeros(2, f32),
+    )
+
+
+def away_net(gain: float = -1.0, action_std: float | None = None) -> EvaderNet:
+    """A hand-made evader of one linear layer: turn = clip(gain * robot_rel_left_m, -1, 1) *
+    pi (away from a robot on its left for a negative gain); identity normaliser."""
+    kernel = np.zeros((EVADER_OBS_DIM, 1), np.float32)
+    kernel[FEATURE_NAMES.index("robot_rel_left_m"), 0] = gain
+    return EvaderNet(
+        ((kernel, np.zeros(1, np.float32)),),
+        np.zeros(EVADER_OBS_DIM, np.float32),
+        np.ones(EVADER_OBS_DIM, np.float32),
+        math.pi,
+        {"features": list(FEATURE_NAMES)},
+        action_std,
     )

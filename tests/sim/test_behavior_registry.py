@@ -193,3 +193,28 @@ class TestRunTimeRegistration:
             unregister_behavior("reactive")
         with pytest.raises(ValueError, match="not registered"):
             unregister_behavior("plus_x")
+
+
+class TestParams:
+    """``Behavior.params``: a behaviour's own fields, what a record of its data must name."""
+
+    def test_reactive_gives_its_eq_12_constants(self):
+        params = BEHAVIORS["reactive"].params(WorldCfg().target)
+        assert params == {
+            "evade_radius_m": 3.0,
+            "evade_angle_rad": pytest.approx(math.pi / 3),
+            "gamma_max_rad": pytest.approx(math.pi / 8),
+            "gamma_hold_s": 0.0,
+            "beta_reading": "bearing",
+        }
+
+    def test_bounce_has_none(self):
+        assert BEHAVIORS["bounce"].params(WorldCfg().target) == {}
+
+    def test_learned_names_its_evader_and_tuples_become_lists(self):
+        t = WorldCfg().target.replace(evader_checkpoint="runs/e0", league_evaders=("a", "b"))
+        assert BEHAVIORS["learned"].params(t) == {
+            "evader_checkpoint": "runs/e0",
+            "evader_sample": False,
+        }
+        assert BEHAVIORS["league"].params(t)["league_evaders"] == ["a", "b"]

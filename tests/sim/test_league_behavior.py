@@ -2,8 +2,6 @@
 follows the weights (a binomial test), nested members' points ride with the frame, and bad
 members or weights are refused naming the field."""
 
-import math
-
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -11,13 +9,12 @@ import pytest
 
 from dyncatch.cli.main import main
 from dyncatch.sim import env
-from dyncatch.sim.behaviors.evader_net import EVADER_CHECKPOINT, EvaderNet, save_evader
+from dyncatch.sim.behaviors.evader_net import EVADER_CHECKPOINT, save_evader
 from dyncatch.sim.behaviors.league import league_weights
-from dyncatch.sim.behaviors.learned import EVADER_OBS_DIM, FEATURE_NAMES
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.validate import ConfigError, validate_world
 
-from .helpers import fixed_rollout
+from .helpers import away_net, fixed_rollout
 
 BASE = WorldCfg().with_speed(1.6)
 
@@ -30,16 +27,7 @@ def _league(world: WorldCfg = BASE, **fields) -> WorldCfg:
 @pytest.fixture(scope="module")
 def evader_file(tmp_path_factory):
     """A hand-made evader: turn = clip(-robot_rel_left_m, -1, 1) x pi (away from the robot)."""
-    kernel = np.zeros((EVADER_OBS_DIM, 1), np.float32)
-    kernel[FEATURE_NAMES.index("robot_rel_left_m"), 0] = -1.0
-    net = EvaderNet(
-        ((kernel, np.zeros(1, np.float32)),),
-        np.zeros(EVADER_OBS_DIM, np.float32),
-        np.ones(EVADER_OBS_DIM, np.float32),
-        math.pi,
-        {"features": list(FEATURE_NAMES)},
-    )
-    return str(save_evader(tmp_path_factory.mktemp("ev") / EVADER_CHECKPOINT, net))
+    return str(save_evader(tmp_path_factory.mktemp("ev") / EVADER_CHECKPOINT, away_net()))
 
 
 def _episode(world: WorldCfg, key, steps: int = 60):

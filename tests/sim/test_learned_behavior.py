@@ -17,7 +17,6 @@ from dyncatch.sim.behaviors.evader_net import (
     save_evader,
 )
 from dyncatch.sim.behaviors.learned import (
-    EVADER_OBS_DIM,
     FEATURE_NAMES,
     evader_features,
     learned_heading,
@@ -26,7 +25,7 @@ from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.state import RobotState, TargetState
 from dyncatch.sim.validate import ConfigError, validate_world
 
-from .helpers import fixed_rollout, place
+from .helpers import away_net, fixed_rollout, place
 
 LEFT = FEATURE_NAMES.index("robot_rel_left_m")
 
@@ -51,24 +50,9 @@ def _bodies(target_xy, heading, speed, robot_xy, robot_yaw=0.0, robot_vel=(0.0, 
     return target, robot
 
 
-def _away_net(gain: float = -1.0, action_std: float | None = None) -> EvaderNet:
-    """One linear layer: turn = clip(gain * robot_rel_left_m, -1, 1) * pi (away from a robot
-    on its left for a negative gain); identity normaliser."""
-    kernel = np.zeros((EVADER_OBS_DIM, 1), np.float32)
-    kernel[LEFT, 0] = gain
-    return EvaderNet(
-        ((kernel, np.zeros(1, np.float32)),),
-        np.zeros(EVADER_OBS_DIM, np.float32),
-        np.ones(EVADER_OBS_DIM, np.float32),
-        math.pi,
-        {"features": list(FEATURE_NAMES)},
-        action_std,
-    )
-
-
 @pytest.fixture
 def away_file(tmp_path):
-    return str(save_evader(tmp_path / EVADER_CHECKPOINT, _away_net()))
+    return str(save_evader(tmp_path / EVADER_CHECKPOINT, away_net()))
 
 
 def test_features_by_hand():
@@ -102,7 +86,7 @@ def _learned_world(path: str, sample: bool = False) -> WorldCfg:
 
 
 def test_sampled_turns_draw_around_the_mean(tmp_path):
-    path = str(save_evader(tmp_path / EVADER_CHECKPOINT, _away_net(action_std=0.25)))
+    path = str(save_evader(tmp_path / EVADER_CHECKPOINT, away_net(action_std=0.25)))
     cfg = _learned_world(path, sample=True)
     target, robot = _bodies((8.0, 8.0), 0.0, 1.0, (8.0, 8.25))  # mean action -0.25
     keys = jax.random.split(jax.random.key(0), 2000)
@@ -112,7 +96,7 @@ def test_sampled_turns_draw_around_the_mean(tmp_path):
     again = learned_heading(target, robot, cfg, keys[0])[0] / math.pi
     assert float(again) == pytest.approx(float(turns[0]), abs=1e-6)  # one key, one turn
     with pytest.raises(ConfigError, match="evader_sample.*no action std"):
-        _learned_world(str(save_evader(tmp_path / "no_std.safetensors", _away_net())), True)
+        _learned_world(str(save_evader(tmp_path / "no_std.safetensors", away_net())), True)
 
 
 def test_episode_through_the_ordinary_step_is_deterministic(away_file):
@@ -187,7 +171,7 @@ class TestCheckpointErrors:
         self._refused(str(p), "not an evader checkpoint")
 
     def test_other_features(self, tmp_path):
-        net = _away_net()
+        net = away_net()
         net = EvaderNet(net.layers, net.norm_mean, net.norm_std, math.pi, {"features": ["x"]})
         self._refused(str(save_evader(tmp_path / "e.safetensors", net)), "retrain")
 
@@ -197,7 +181,7 @@ class TestCheckpointErrors:
 
 def test_a_first_load_inside_a_traced_step_gives_constants(tmp_path):
     # No validate_world first: the file is read while the step is traced.
-    world = _learned_world(str(save_evader(tmp_path / EVADER_CHECKPOINT, _away_net())))
+    world = _learned_world(str(save_evader(tmp_path / EVADER_CHECKPOINT, away_net())))
     _load_cached.cache_clear()  # _learned_world validated (and so loaded) it
     s0 = env.reset(jax.random.key(0), world)
     step = jax.jit(lambda s: env.step(s, jnp.zeros(3), world)[0])

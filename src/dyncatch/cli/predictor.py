@@ -120,7 +120,7 @@ def run_predictor_table(cmd: PredictorTableCmd) -> list[dict]:
     header = f"Table II, regenerated in {wall_s:.0f} s (seed {cmd.seed})."
     paths = write(rows, cmd.out, header)
     if cmd.json:
-        keys = ("behavior", "kind", "budget_steps", "error_mps", *TRACKER_KEYS)
+        keys = ("behavior", "behavior_params", "kind", "budget_steps", "error_mps", *TRACKER_KEYS)
         print(json.dumps({"rows": [{k: r[k] for k in keys if k in r} for r in rows]}))
     else:
         console.print(markdown(rows))

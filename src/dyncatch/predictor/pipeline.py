@@ -27,6 +27,7 @@ from dyncatch.predictor.model import Predictor
 from dyncatch.predictor.tracker.config import TrackerCfg, TrackerDataCfg, TrackerTrainCfg
 from dyncatch.predictor.tracker.pipeline import train_tracker
 from dyncatch.predictor.train import encode_samples, evaluate, fit
+from dyncatch.sim.behaviors import get_behavior
 from dyncatch.sim.config import WorldCfg
 from dyncatch.utils.progress import NoProgress, Progress
 
@@ -65,8 +66,10 @@ class PredictorTrainCfg:
 
 
 def train_predictor(cfg: PredictorTrainCfg, progress: Progress | None = None) -> dict:
-    """Run the pipeline; returns ``{"behavior", "kind", "budget_steps", "train_samples",
-    "eval_samples", "error_mps", "seconds"}`` (also written to ``metrics.json``)."""
+    """Run the pipeline; returns ``{"behavior", "behavior_params", "kind", "budget_steps",
+    "train_samples", "eval_samples", "error_mps", "seconds"}`` (also written to
+    ``metrics.json`` and the checkpoint's info); ``behavior_params`` are the behaviour's own
+    fields (``learned``: its evader file)."""
     import jax
     from tensorboardX import SummaryWriter
 
@@ -103,6 +106,7 @@ def train_predictor(cfg: PredictorTrainCfg, progress: Progress | None = None) ->
     writer.close()
     metrics = {
         "behavior": world.target.behavior,
+        "behavior_params": get_behavior(world.target.behavior).params(world.target),
         "kind": cfg.kind,
         "budget_steps": used,
         "train_samples": n,

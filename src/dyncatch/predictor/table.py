@@ -12,6 +12,7 @@ The ``tracker`` kind (not in the default kinds; ``--kinds tracker``) has rows of
 from __future__ import annotations
 
 import csv
+import json
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -27,7 +28,7 @@ from dyncatch.predictor.tracker.config import TrackerCfg, TrackerDataCfg, Tracke
 from dyncatch.predictor.tracker.pipeline import write_error_vs_time
 from dyncatch.predictor.tracker.table import tracker_rows
 from dyncatch.predictor.train import encode_samples, evaluate, fit
-from dyncatch.sim.behaviors import scripted_behaviors
+from dyncatch.sim.behaviors import get_behavior, scripted_behaviors
 from dyncatch.sim.config import WorldCfg
 
 
@@ -72,8 +73,10 @@ def run_table(
     tracker: tuple[TrackerCfg, TrackerTrainCfg, TrackerDataCfg] | None = None,
     paper_errors: Mapping[tuple[str, str, int], float] | None = None,
 ) -> list[dict]:
-    """Rows ``{"behavior", "kind", "budget_steps", "error_mps", "paper_error_mps",
-    "train_samples", "eval_samples", "seconds"}``, one per cell (tracker rows: see
+    """Rows ``{"behavior", "behavior_params", "kind", "budget_steps", "error_mps",
+    "paper_error_mps", "train_samples", "eval_samples", "seconds"}``, one per cell
+    (``behavior_params``: the behaviour's own fields, ``learned``'s evader file among them,
+    so rows of two evaders differ; tracker rows: see
     ``predictor.tracker.table``; ``tracker`` is its configs, default the library's).
     ``paper_errors`` are the published errors by (behaviour, kind, budget), shown beside
     ours (``dyncatch.reproduce.paper.PAPER_TABLE_II_ERRORS``); a cell without one has None."""
@@ -85,12 +88,14 @@ def run_table(
     frame_kinds = [k for k in table.kinds if k != TRACKER]
     for behavior in table.behaviors:
         w = world.with_behavior(behavior)
+        own = get_behavior(behavior).params(w.target)
         if TRACKER in table.kinds:
             setup = tracker or (TrackerCfg(), TrackerTrainCfg(), TrackerDataCfg())
             keys = (k_train, k_eval, k_fit)
-            rows += tracker_rows(
+            found = tracker_rows(
                 behavior, w, table.budgets, table.eval_steps, keys, *setup, on_cell
             )
+            rows += [{**r, "behavior_params": own} for r in found]
         if not frame_kinds:
             continue
         train, _ = collect(k_train, w, collect_cfg, max(table.budgets))
@@ -109,6 +114,7 @@ def run_table(
                 error = evaluate(predictor, params, enc_eval, held_out.label_mps)
                 row = {
                     "behavior": behavior,
+                    "behavior_params": own,
                     "kind": kind,
                     "budget_steps": budget,
                     "error_mps": error,
@@ -188,7 +194,9 @@ def write(rows: list[dict], out: Path, header: str = "") -> list[Path]:
         fields = list(dict.fromkeys(k for r in rows for k in r))
         writer = csv.DictWriter(f, fieldnames=fields, restval="")
         writer.writeheader()
-        writer.writerows(rows)
+        writer.writerows(
+            {k: json.dumps(v) if isinstance(v, dict) else v for k, v in r.items()} for r in rows
+        )
     paths = []
     for behavior, bins in by_time.items():
         for p in write_error_vs_time(bins, out, behavior):

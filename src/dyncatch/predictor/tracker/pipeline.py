@@ -25,6 +25,7 @@ from dyncatch.predictor.tracker.train import (
     evaluate_tracker,
     fit_tracker,
 )
+from dyncatch.sim.behaviors import get_behavior
 from dyncatch.utils.progress import NoProgress, Progress
 
 if TYPE_CHECKING:
@@ -66,6 +67,7 @@ def train_tracker(cfg: PredictorTrainCfg, progress: Progress | None = None) -> d
     write_error_vs_time(bins, cfg.out, f"{world.target.behavior}, held-out {cfg.eval_steps} steps")
     metrics = {
         "behavior": world.target.behavior,
+        "behavior_params": get_behavior(world.target.behavior).params(world.target),
         "kind": "tracker",
         "budget_steps": used,
         "train_samples": n,

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 import tyro
 from flax import struct
 
@@ -114,3 +115,17 @@ class Behavior:
             return ()
         body = {f.name for f in dataclasses.fields(TargetBodyCfg)}
         return tuple(f.name for f in dataclasses.fields(self.cfg_cls) if f.name not in body)
+
+    def params(self, target: Any) -> dict[str, Any]:
+        """This behaviour's own fields of ``target`` (a ``TargetCfg``) as JSON values (tuples
+        as lists), by name: what a record of data drawn from it must name besides the
+        behaviour, e.g. ``learned``'s evader file (two evaders share one behaviour name)."""
+        return {name: _json_value(getattr(target, name)) for name in self.param_names}
+
+
+def _json_value(v: Any) -> Any:
+    """A config value as JSON: tuples as lists, arrays (a non-static field of a world that
+    went through jit or the CLI) as numbers."""
+    if isinstance(v, tuple):
+        return [_json_value(x) for x in v]
+    return np.asarray(v).tolist() if hasattr(v, "shape") else v
