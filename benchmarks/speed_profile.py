@@ -3,7 +3,7 @@ trained seed's success against the reactive target at Table I's lower speeds, so
 setting's effect reads as a curve over speed, as the paper's Table I does.
 
     .venv/bin/python benchmarks/speed_profile.py --study /work/studies/parity \\
-        --out /work/studies/speed_profile [--settings default success_every_step]
+        --out /work/studies/speed_profile [--settings default paper_observation ...]
 
 Reads each setting's runs from the parity study's folder with the most seeds (the full pass
 or a primary pass, as ``parity_study.py`` does) and evaluates every seed of rl and sp_rl
@@ -32,7 +32,9 @@ def parser() -> argparse.ArgumentParser:
     ap.add_argument("--study", type=Path, required=True, help="the parity study's --out")
     ap.add_argument("--out", type=Path, required=True, help="where each run's rows are cached")
     ap.add_argument("--summary-dir", type=Path, default=Path("benchmarks/results/speed_profile"))
-    ap.add_argument("--settings", nargs="+", default=["default", "success_every_step"])
+    ap.add_argument(
+        "--settings", nargs="+", default=["default", "paper_observation", "success_every_step"]
+    )
     ap.add_argument("--speeds", type=float, nargs="+", default=[0.4, 0.8, 1.0, 1.2, 1.4])
     ap.add_argument("--episodes", type=int, default=100)
     ap.add_argument("--eval-seed", type=int, default=0)
