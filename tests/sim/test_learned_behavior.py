@@ -51,18 +51,21 @@ def _bodies(target_xy, heading, speed, robot_xy, robot_yaw=0.0, robot_vel=(0.0, 
     return target, robot
 
 
-def _away_net(gain: float = -1.0, action_std: float | None = None) -> EvaderNet:
+def _away_net(
+    gain: float = -1.0, action_std: float | None = None, bias: float = 0.0, frame: str = "heading"
+) -> EvaderNet:
     """One linear layer: turn = clip(gain * robot_rel_left_m, -1, 1) * pi (away from a robot
     on its left for a negative gain); identity normaliser."""
     kernel = np.zeros((EVADER_OBS_DIM, 1), np.float32)
     kernel[LEFT, 0] = gain
     return EvaderNet(
-        ((kernel, np.zeros(1, np.float32)),),
+        ((kernel, np.full(1, bias, np.float32)),),
         np.zeros(EVADER_OBS_DIM, np.float32),
         np.ones(EVADER_OBS_DIM, np.float32),
         math.pi,
         {"features": list(FEATURE_NAMES)},
         action_std,
+        frame,
     )
 
 
@@ -93,6 +96,26 @@ def test_learned_heading_is_the_networks_mean_turn(away_file):
     heading, state = learned_heading(target, robot, cfg, jax.random.key(0))
     assert float(heading) == pytest.approx(-0.5 * math.pi, abs=1e-6)
     assert float(state.turn_rad) == pytest.approx(-0.5 * math.pi, abs=1e-6)
+
+
+def test_flee_frame_adds_the_action_to_the_flee_direction(tmp_path):
+    # A constant action 1/3 (60 deg) off the flee direction, read from the file.
+    path = str(save_evader(tmp_path / EVADER_CHECKPOINT, _away_net(0.0, bias=1 / 3, frame="flee")))
+    cfg = _learned_world(path)
+    # Target at (8, 8) heading east, robot 1 m north: flee direction -90 deg, so the desired
+    # heading is -90 + 60 = -30 deg, a heading change of -30 deg.
+    target, robot = _bodies((8.0, 8.0), 0.0, 1.0, (8.0, 9.0))
+    heading, state = learned_heading(target, robot, cfg, jax.random.key(0))
+    assert float(heading) == pytest.approx(-math.pi / 6, abs=1e-6)
+    assert float(state.turn_rad) == pytest.approx(-math.pi / 6, abs=1e-6)
+    # Heading north-west (135 deg) with the robot to the west: flee east (0 deg), desired
+    # +60 deg, a change of -75 deg (not +285).
+    target, robot = _bodies((8.0, 8.0), 0.75 * math.pi, 1.0, (6.0, 8.0))
+    heading, _ = learned_heading(target, robot, cfg, jax.random.key(0))
+    assert float(heading) == pytest.approx(math.pi / 3, abs=1e-6)
+    bad = str(save_evader(tmp_path / "bad.safetensors", _away_net(frame="sideways")))
+    with pytest.raises(ConfigError, match="action frame 'sideways'"):
+        _learned_world(bad)
 
 
 def _learned_world(path: str, sample: bool = False) -> WorldCfg:

@@ -16,7 +16,7 @@ applies the turn the evader trainer writes into its state.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 import jax
 import jax.numpy as jnp
@@ -25,7 +25,7 @@ from flax import struct
 from dyncatch.sim.behaviors.base import Behavior, Check, uniform_init
 from dyncatch.sim.behaviors.evader_net import EvaderCheckpointError, EvaderNet, load_evader
 from dyncatch.sim.fields import static
-from dyncatch.sim.geometry import rotate, world_to_body
+from dyncatch.sim.geometry import rotate, world_to_body, wrap_angle
 from dyncatch.sim.state import RobotState, TargetState
 
 if TYPE_CHECKING:
@@ -51,6 +51,32 @@ TURN_LIMIT_RAD = math.pi
 turn-rate limit then clips what it can do in one step, 0.2 rad at 10 rad/s and 50 Hz)."""
 
 
+def off_heading(angle_rad: jax.Array, target: TargetState, robot: RobotState) -> jax.Array:
+    """The action is the heading change itself, () rad."""
+    del target, robot
+    return angle_rad
+
+
+def off_flee_direction(angle_rad: jax.Array, target: TargetState, robot: RobotState):
+    """The action is the desired heading relative to the direction straight away from the
+    robot, atan2(x_obj - x_rob), as eq. 11-12 write the reactive target's (a 60 deg dodge
+    is then one constant action); the heading change to it, () rad in [-pi, pi)."""
+    d = target.xy_m - robot.xy_m
+    return wrap_angle(jnp.arctan2(d[1], d[0]) + angle_rad - target.heading_rad)
+
+
+ActionFrame = Literal["heading", "flee"]
+ACTION_FRAMES = {"heading": off_heading, "flee": off_flee_direction}
+"""What the evader's action, an angle in [-turn_limit, turn_limit], is measured from: each
+entry gives the heading change it asks for (the body then turns by at most the turn-rate
+limit). ``heading``: the target's own heading; ``flee``: the flee direction."""
+
+
+def turn_of(angle_rad: jax.Array, target: TargetState, robot: RobotState, frame: str):
+    """The heading change, () rad, that the action ``angle_rad`` in ``frame`` asks for."""
+    return ACTION_FRAMES[frame](angle_rad, target, robot)
+
+
 @struct.dataclass
 class LearnedCfg:
     evader_checkpoint: str = static("")
@@ -66,7 +92,8 @@ class EvaderState:
     """The state of ``learned`` and ``commanded`` targets."""
 
     turn_rad: jax.Array
-    """commanded: the turn the trainer set for this step, (); learned: the last turn."""
+    """commanded: the turn the trainer set for this step, (); learned: the last turn; both
+    the desired heading less the heading, rad, whatever the action frame."""
     corner_xy_m: jax.Array
     """The arena square's lower corner (the scene frame's origin) in the local frame, (2,);
     it moves with the frame (``sim.frame.recentre``), so the walls are known at each step."""
@@ -117,13 +144,14 @@ def evader_net(cfg: WorldCfg) -> EvaderNet:
 def learned_heading(
     target: TargetState, robot: RobotState, cfg: WorldCfg, key: jax.Array
 ) -> tuple[jax.Array, EvaderState]:
-    """Current heading plus the frozen actor's mean turn (deterministic; ``key`` unused), or
-    a turn drawn around it with ``key`` where ``target.evader_sample``."""
+    """The frozen actor's mean turn (deterministic; ``key`` unused), or a turn drawn around
+    it with ``key`` where ``target.evader_sample``, added to its action frame (the file's
+    ``action_frame``: the current heading or the flee direction)."""
     net = evader_net(cfg)
     action = net.action_mean(evader_features(target, robot, cfg))
     if cfg.target.evader_sample:
         action = action + net.action_std * jax.random.normal(key, ())
-    turn = net.turn(action)
+    turn = turn_of(net.turn(action), target, robot, net.action_frame)
     return target.heading_rad + turn, target.behavior_state.replace(turn_rad=turn)
 
 
@@ -140,9 +168,14 @@ def learned_validate(cfg: WorldCfg) -> list[Check]:
         evader_net(cfg)
     except EvaderCheckpointError as err:
         return [(False, "target.evader_checkpoint", str(err))]
-    no_std = cfg.target.evader_sample and evader_net(cfg).action_std is None
+    net = evader_net(cfg)
+    no_std = cfg.target.evader_sample and net.action_std is None
     why = "its file records no action std (written before it was recorded); retrain it"
-    return [(not no_std, "target.evader_sample", why)]
+    frame = f"its action frame {net.action_frame!r} is none of {', '.join(ACTION_FRAMES)}"
+    return [
+        (not no_std, "target.evader_sample", why),
+        (net.action_frame in ACTION_FRAMES, "target.evader_checkpoint", frame),
+    ]
 
 
 LEARNED = Behavior(
