@@ -20,6 +20,7 @@ from dyncatch.sim import env as sim_env
 from dyncatch.sim.api import Environment
 from dyncatch.sim.behaviors.evader_net import EVADER_CHECKPOINT
 from dyncatch.sim.behaviors.learned import EVADER_OBS_DIM, evader_net
+from dyncatch.sim.behaviors.reactive import flee_and_dodge
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.validate import validate_world
 
@@ -89,6 +90,23 @@ class TestActionSpace:
             s1 = jax.jit(env.step)(s, jnp.array([angle]))[0]
             want = math.remainder(flee + angle - float(s.world.target.heading_rad), math.tau)
             assert float(s1.world.target.behavior_state.turn_rad) == pytest.approx(want, abs=1e-5)
+
+    def test_reactive_frame_at_zero_plays_eq_11_12_without_gamma(self):
+        env = evader_env(WORLD, intercept_policy(WORLD), action_frame="reactive")
+        starts = [env.reset(jax.random.key(k)) for k in range(8)]
+        near = min(starts, key=lambda s: float(s.world.distance_m))
+        far = max(starts, key=lambda s: float(s.world.distance_m))
+        step = jax.jit(env.step)
+        dodged = 0
+        for s in (near, far):
+            for _ in range(30):
+                t, r = s.world.target, s.world.robot
+                want = math.remainder(float(flee_and_dodge(t, r, WORLD) - t.heading_rad), math.tau)
+                dodged += float(s.world.distance_m) <= WORLD.target.evade_radius_m
+                s = step(s, jnp.zeros(1))[0]
+                turn = float(s.world.target.behavior_state.turn_rad)
+                assert turn == pytest.approx(want, abs=1e-5)
+        assert 0 < dodged < 60  # both branches of eq. 12 were played
 
     def test_refuses_an_unknown_frame_and_a_bad_limit(self):
         with pytest.raises(ValueError, match="action frame 'up'"):

@@ -113,6 +113,16 @@ def test_flee_frame_adds_the_action_to_the_flee_direction(tmp_path):
     target, robot = _bodies((8.0, 8.0), 0.75 * math.pi, 1.0, (6.0, 8.0))
     heading, _ = learned_heading(target, robot, cfg, jax.random.key(0))
     assert float(heading) == pytest.approx(math.pi / 3, abs=1e-6)
+    # The reactive frame: an action of 0 is eq. 11-12 without gamma. Robot 2 m south, yaw
+    # east: flee north (90 deg), beta = 90 deg > 0 so it dodges left, +60: desired 150 deg.
+    zero = str(save_evader(tmp_path / "r.safetensors", _away_net(0.0, frame="reactive")))
+    target, robot = _bodies((8.0, 8.0), 0.0, 1.0, (8.0, 6.0))
+    heading, _ = learned_heading(target, robot, _learned_world(zero), jax.random.key(0))
+    assert float(heading) == pytest.approx(math.radians(150.0), abs=1e-6)
+    # Beyond r_ev (robot 4 m south) it flees straight: 90 deg.
+    target, robot = _bodies((8.0, 8.0), 0.0, 1.0, (8.0, 4.0))
+    heading, _ = learned_heading(target, robot, _learned_world(zero), jax.random.key(0))
+    assert float(heading) == pytest.approx(math.radians(90.0), abs=1e-6)
     bad = str(save_evader(tmp_path / "bad.safetensors", _away_net(frame="sideways")))
     with pytest.raises(ConfigError, match="action frame 'sideways'"):
         _learned_world(bad)

@@ -232,7 +232,7 @@ class EvaderEnv:
         catch."""
         turn = jnp.clip(action[0], -self.turn_limit_rad, self.turn_limit_rad)
         ws = state.world
-        turn = turn_of(turn, ws.target, ws.robot, self.action_frame)
+        turn = turn_of(turn, ws.target, ws.robot, self.action_frame, self.world)
         behavior_state = ws.target.behavior_state.replace(turn_rad=turn)
         ws = ws.replace(target=ws.target.replace(behavior_state=behavior_state))
         key = jax.random.fold_in(ws.key, PURSUER_STREAM)

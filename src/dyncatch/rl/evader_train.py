@@ -73,7 +73,9 @@ class EvaderTrainCfg:
     """What the action's angle is added to for the desired heading
     (dyncatch.sim.behaviors.learned.ACTION_FRAMES): heading, the target's own heading (a
     heading change); flee, the direction straight away from the robot, as eq. 11-12 write
-    the reactive target's. Recorded in the file, so the deployed evader acts as in
+    the reactive target's; reactive, the eq. 11-12 heading without gamma (flee plus the
+    alpha dodge within r_ev, the world's target.* fields), so the action is a correction to
+    the scripted rule. Recorded in the file, so the deployed evader acts as in
     training."""
     reward: EvaderRewardCfg = EvaderRewardCfg()
     """The evader's reward terms (dyncatch.rl.evader.EvaderRewardCfg)."""

@@ -24,6 +24,7 @@ from flax import struct
 
 from dyncatch.sim.behaviors.base import Behavior, Check, uniform_init
 from dyncatch.sim.behaviors.evader_net import EvaderCheckpointError, EvaderNet, load_evader
+from dyncatch.sim.behaviors.reactive import flee_and_dodge
 from dyncatch.sim.fields import static
 from dyncatch.sim.geometry import rotate, world_to_body, wrap_angle
 from dyncatch.sim.state import RobotState, TargetState
@@ -51,30 +52,45 @@ TURN_LIMIT_RAD = math.pi
 turn-rate limit then clips what it can do in one step, 0.2 rad at 10 rad/s and 50 Hz)."""
 
 
-def off_heading(angle_rad: jax.Array, target: TargetState, robot: RobotState) -> jax.Array:
+def off_heading(angle_rad: jax.Array, target: TargetState, robot: RobotState, cfg: WorldCfg):
     """The action is the heading change itself, () rad."""
-    del target, robot
+    del target, robot, cfg
     return angle_rad
 
 
-def off_flee_direction(angle_rad: jax.Array, target: TargetState, robot: RobotState):
+def off_flee_direction(
+    angle_rad: jax.Array, target: TargetState, robot: RobotState, cfg: WorldCfg
+) -> jax.Array:
     """The action is the desired heading relative to the direction straight away from the
     robot, atan2(x_obj - x_rob), as eq. 11-12 write the reactive target's (a 60 deg dodge
     is then one constant action); the heading change to it, () rad in [-pi, pi)."""
+    del cfg
     d = target.xy_m - robot.xy_m
     return wrap_angle(jnp.arctan2(d[1], d[0]) + angle_rad - target.heading_rad)
 
 
-ActionFrame = Literal["heading", "flee"]
-ACTION_FRAMES = {"heading": off_heading, "flee": off_flee_direction}
+def off_reactive(
+    angle_rad: jax.Array, target: TargetState, robot: RobotState, cfg: WorldCfg
+) -> jax.Array:
+    """The action is a correction to the eq. 11-12 target's heading without gamma (flee,
+    plus the alpha dodge within r_ev, with the world's ``target.*`` reactive fields): an
+    action of 0 is that rule; the heading change to it, () rad in [-pi, pi)."""
+    return wrap_angle(flee_and_dodge(target, robot, cfg) + angle_rad - target.heading_rad)
+
+
+ActionFrame = Literal["heading", "flee", "reactive"]
+ACTION_FRAMES = {"heading": off_heading, "flee": off_flee_direction, "reactive": off_reactive}
 """What the evader's action, an angle in [-turn_limit, turn_limit], is measured from: each
 entry gives the heading change it asks for (the body then turns by at most the turn-rate
-limit). ``heading``: the target's own heading; ``flee``: the flee direction."""
+limit). ``heading``: the target's own heading; ``flee``: the flee direction; ``reactive``:
+the eq. 11-12 heading without gamma (a residual on the scripted rule)."""
 
 
-def turn_of(angle_rad: jax.Array, target: TargetState, robot: RobotState, frame: str):
+def turn_of(
+    angle_rad: jax.Array, target: TargetState, robot: RobotState, frame: str, cfg: WorldCfg
+) -> jax.Array:
     """The heading change, () rad, that the action ``angle_rad`` in ``frame`` asks for."""
-    return ACTION_FRAMES[frame](angle_rad, target, robot)
+    return ACTION_FRAMES[frame](angle_rad, target, robot, cfg)
 
 
 @struct.dataclass
@@ -151,7 +167,7 @@ def learned_heading(
     action = net.action_mean(evader_features(target, robot, cfg))
     if cfg.target.evader_sample:
         action = action + net.action_std * jax.random.normal(key, ())
-    turn = turn_of(net.turn(action), target, robot, net.action_frame)
+    turn = turn_of(net.turn(action), target, robot, net.action_frame, cfg)
     return target.heading_rad + turn, target.behavior_state.replace(turn_rad=turn)
 
 
