@@ -2,7 +2,8 @@
 
 ``EvaderEnv`` implements the environment protocol (``dyncatch.sim.api``), so the PPO of
 ``rl.train.make_train`` trains the target unchanged. Its world runs the ``commanded``
-behaviour: each ``step`` writes the evader's turn (a heading change in [-pi, pi]) into the
+behaviour: each ``step`` writes the evader's turn (the heading change its action asks for
+from its action frame, ``sim.behaviors.learned.ACTION_FRAMES``) into the
 target's behaviour state, asks the frozen pursuer (any policy of ``policies.api``, run
 through ``as_recurrent``) for the base command, and steps the world once. The evader
 observes ``sim.behaviors.learned.evader_features``, the function the deployed ``learned``

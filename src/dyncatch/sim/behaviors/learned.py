@@ -2,8 +2,9 @@
 (``commanded``).
 
 Both see what a fleeing animal could: ``evader_features`` of (target, robot), the same pure
-function the evader's trainer (``dyncatch.rl.evader``) observes. Each step the evader picks a
-turn; the desired heading is the current heading plus it, and the body then turns toward it
+function the evader's trainer (``dyncatch.rl.evader``) observes. Each step the evader picks an
+angle; the desired heading is its action frame (``ACTION_FRAMES``: its own heading by
+default, the flee direction, or the eq. 11-12 heading) plus it, and the body then turns toward it
 under the turn-rate limit and runs at the episode's speed cap, exactly as the scripted
 targets do (``sim.target.steer``). Speed is not the evader's to choose: it always runs at its
 cap (a reading; the issue allows any speed up to the cap, which is not built).
@@ -48,8 +49,9 @@ FEATURE_NAMES = (
 """The evader's observation, in order (``evader_features``)."""
 EVADER_OBS_DIM = len(FEATURE_NAMES)
 TURN_LIMIT_RAD = math.pi
-"""The evader's action is a heading change in [-pi, pi] per control step (the body's
-turn-rate limit then clips what it can do in one step, 0.2 rad at 10 rad/s and 50 Hz)."""
+"""The default range of the evader's action, an angle in [-pi, pi] from its action frame
+(``ACTION_FRAMES``) per control step (the body's turn-rate limit then clips what it can do
+in one step, 0.2 rad at 10 rad/s and 50 Hz)."""
 
 
 def off_heading(angle_rad: jax.Array, target: TargetState, robot: RobotState, cfg: WorldCfg):
