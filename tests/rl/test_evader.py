@@ -2,6 +2,7 @@
 trained checkpoint that runs as the ``learned`` behaviour with the trainer's own numbers."""
 
 import dataclasses
+import math
 
 import jax
 import jax.numpy as jnp
@@ -19,6 +20,7 @@ from dyncatch.sim import env as sim_env
 from dyncatch.sim.api import Environment
 from dyncatch.sim.behaviors.evader_net import EVADER_CHECKPOINT
 from dyncatch.sim.behaviors.learned import EVADER_OBS_DIM, evader_net
+from dyncatch.sim.behaviors.reactive import flee_and_dodge
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.validate import validate_world
 
@@ -68,6 +70,51 @@ class TestEnvironment:
         assert float(r) == pytest.approx(-1.0)
 
 
+class TestActionSpace:
+    def test_turn_limit_spans_the_action(self):
+        env = evader_env(WORLD, pursuit_policy(WORLD), turn_limit_rad=0.1)
+        assert float(env.action_spec.high[0]) == pytest.approx(0.1)
+        assert float(env.action_spec.low[0]) == pytest.approx(-0.1)
+        s = env.reset(jax.random.key(0))
+        s1 = jax.jit(env.step)(s, jnp.array([0.5]))[0]  # beyond the limit: clipped
+        assert float(s1.world.target.behavior_state.turn_rad) == pytest.approx(0.1)
+        heading = s1.world.target.heading_rad - s.world.target.heading_rad
+        assert float(jnp.angle(jnp.exp(1j * heading))) == pytest.approx(0.1, abs=1e-5)
+
+    def test_flee_frame_heads_off_the_flee_direction(self):
+        env = evader_env(WORLD, pursuit_policy(WORLD), action_frame="flee")
+        s = env.reset(jax.random.key(3))
+        d = np.asarray(s.world.target.xy_m - s.world.robot.xy_m)
+        flee = math.atan2(d[1], d[0])
+        for angle in (0.0, 1.0, -2.5):
+            s1 = jax.jit(env.step)(s, jnp.array([angle]))[0]
+            want = math.remainder(flee + angle - float(s.world.target.heading_rad), math.tau)
+            assert float(s1.world.target.behavior_state.turn_rad) == pytest.approx(want, abs=1e-5)
+
+    def test_reactive_frame_at_zero_plays_eq_11_12_without_gamma(self):
+        env = evader_env(WORLD, intercept_policy(WORLD), action_frame="reactive")
+        starts = [env.reset(jax.random.key(k)) for k in range(8)]
+        near = min(starts, key=lambda s: float(s.world.distance_m))
+        far = max(starts, key=lambda s: float(s.world.distance_m))
+        step = jax.jit(env.step)
+        dodged = 0
+        for s in (near, far):
+            for _ in range(30):
+                t, r = s.world.target, s.world.robot
+                want = math.remainder(float(flee_and_dodge(t, r, WORLD) - t.heading_rad), math.tau)
+                dodged += float(s.world.distance_m) <= WORLD.target.evade_radius_m
+                s = step(s, jnp.zeros(1))[0]
+                turn = float(s.world.target.behavior_state.turn_rad)
+                assert turn == pytest.approx(want, abs=1e-5)
+        assert 0 < dodged < 60  # both branches of eq. 12 were played
+
+    def test_refuses_an_unknown_frame_and_a_bad_limit(self):
+        with pytest.raises(ValueError, match="action frame 'up'"):
+            evader_env(WORLD, pursuit_policy(WORLD), action_frame="up")
+        with pytest.raises(ValueError, match="turn_limit_rad 0.0"):
+            evader_env(WORLD, pursuit_policy(WORLD), turn_limit_rad=0.0)
+
+
 def test_a_mixture_plays_the_drawn_pursuer():
     pursuers = [pursuit_policy(WORLD), intercept_policy(WORLD)]
     mixed = evader_env(WORLD, pursuers)
@@ -106,6 +153,9 @@ def test_exported_actor_is_the_trainers_mean_turn(env):
     np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-5)
     log_std = float(ts.params["params"]["log_std"][0])
     assert exported.action_std == pytest.approx(np.exp(log_std))
+    flee = evader_net_of(ts, {}, 0.5, "flee")
+    assert (flee.turn_limit_rad, flee.action_frame) == (0.5, "flee")
+    assert (exported.turn_limit_rad, exported.action_frame) == (math.pi, "heading")
 
 
 @pytest.fixture(scope="module")

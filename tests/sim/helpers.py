@@ -103,16 +103,20 @@ def obstacles(boxes=(), cylinders=(), period_m: float = 0.0):
     )
 
 
-def away_net(gain: float = -1.0, action_std: float | None = None) -> EvaderNet:
-    """A hand-made evader of one linear layer: turn = clip(gain * robot_rel_left_m, -1, 1) *
-    pi (away from a robot on its left for a negative gain); identity normaliser."""
+def away_net(
+    gain: float = -1.0, action_std: float | None = None, bias: float = 0.0, frame: str = "heading"
+) -> EvaderNet:
+    """A hand-made evader of one linear layer: turn = clip(gain * robot_rel_left_m + bias,
+    -1, 1) * pi (away from a robot on its left for a negative gain), added to ``frame``'s
+    angle; identity normaliser."""
     kernel = np.zeros((EVADER_OBS_DIM, 1), np.float32)
     kernel[FEATURE_NAMES.index("robot_rel_left_m"), 0] = gain
     return EvaderNet(
-        ((kernel, np.zeros(1, np.float32)),),
+        ((kernel, np.full(1, bias, np.float32)),),
         np.zeros(EVADER_OBS_DIM, np.float32),
         np.ones(EVADER_OBS_DIM, np.float32),
         math.pi,
         {"features": list(FEATURE_NAMES)},
         action_std,
+        frame,
     )

@@ -79,6 +79,36 @@ def test_learned_heading_is_the_networks_mean_turn(away_file):
     assert float(state.turn_rad) == pytest.approx(-0.5 * math.pi, abs=1e-6)
 
 
+def test_flee_frame_adds_the_action_to_the_flee_direction(tmp_path):
+    # A constant action 1/3 (60 deg) off the flee direction, read from the file.
+    path = str(save_evader(tmp_path / EVADER_CHECKPOINT, away_net(0.0, bias=1 / 3, frame="flee")))
+    cfg = _learned_world(path)
+    # Target at (8, 8) heading east, robot 1 m north: flee direction -90 deg, so the desired
+    # heading is -90 + 60 = -30 deg, a heading change of -30 deg.
+    target, robot = _bodies((8.0, 8.0), 0.0, 1.0, (8.0, 9.0))
+    heading, state = learned_heading(target, robot, cfg, jax.random.key(0))
+    assert float(heading) == pytest.approx(-math.pi / 6, abs=1e-6)
+    assert float(state.turn_rad) == pytest.approx(-math.pi / 6, abs=1e-6)
+    # Heading north-west (135 deg) with the robot to the west: flee east (0 deg), desired
+    # +60 deg, a change of -75 deg (not +285).
+    target, robot = _bodies((8.0, 8.0), 0.75 * math.pi, 1.0, (6.0, 8.0))
+    heading, _ = learned_heading(target, robot, cfg, jax.random.key(0))
+    assert float(heading) == pytest.approx(math.pi / 3, abs=1e-6)
+    # The reactive frame: an action of 0 is eq. 11-12 without gamma. Robot 2 m south, yaw
+    # east: flee north (90 deg), beta = 90 deg > 0 so it dodges left, +60: desired 150 deg.
+    zero = str(save_evader(tmp_path / "r.safetensors", away_net(0.0, frame="reactive")))
+    target, robot = _bodies((8.0, 8.0), 0.0, 1.0, (8.0, 6.0))
+    heading, _ = learned_heading(target, robot, _learned_world(zero), jax.random.key(0))
+    assert float(heading) == pytest.approx(math.radians(150.0), abs=1e-6)
+    # Beyond r_ev (robot 4 m south) it flees straight: 90 deg.
+    target, robot = _bodies((8.0, 8.0), 0.0, 1.0, (8.0, 4.0))
+    heading, _ = learned_heading(target, robot, _learned_world(zero), jax.random.key(0))
+    assert float(heading) == pytest.approx(math.radians(90.0), abs=1e-6)
+    bad = str(save_evader(tmp_path / "bad.safetensors", away_net(frame="sideways")))
+    with pytest.raises(ConfigError, match="action frame 'sideways'"):
+        _learned_world(bad)
+
+
 def _learned_world(path: str, sample: bool = False) -> WorldCfg:
     cfg = WorldCfg().with_behavior("learned").with_speed(1.6)
     target = cfg.target.replace(evader_checkpoint=path, evader_sample=sample)

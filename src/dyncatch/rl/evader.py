@@ -2,7 +2,8 @@
 
 ``EvaderEnv`` implements the environment protocol (``dyncatch.sim.api``), so the PPO of
 ``rl.train.make_train`` trains the target unchanged. Its world runs the ``commanded``
-behaviour: each ``step`` writes the evader's turn (a heading change in [-pi, pi]) into the
+behaviour: each ``step`` writes the evader's turn (the heading change its action asks for
+from its action frame, ``sim.behaviors.learned.ACTION_FRAMES``) into the
 target's behaviour state, asks the frozen pursuer (any policy of ``policies.api``, run
 through ``as_recurrent``) for the base command, and steps the world once. The evader
 observes ``sim.behaviors.learned.evader_features``, the function the deployed ``learned``
@@ -27,7 +28,13 @@ from flax import struct
 from dyncatch.policies.api import as_recurrent
 from dyncatch.sim import env as sim_env
 from dyncatch.sim.api import Spec
-from dyncatch.sim.behaviors.learned import EVADER_OBS_DIM, TURN_LIMIT_RAD, evader_features
+from dyncatch.sim.behaviors.learned import (
+    ACTION_FRAMES,
+    EVADER_OBS_DIM,
+    TURN_LIMIT_RAD,
+    evader_features,
+    turn_of,
+)
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.state import EnvState, Obs
 
@@ -164,6 +171,10 @@ class EvaderEnv:
     reward: EvaderRewardCfg = EvaderRewardCfg()
     pursuer_weights: tuple[float, ...] = struct.field(pytree_node=False, default=())
     """The chance of each pursuer per episode (normalised; a 0 never plays); empty: uniform."""
+    turn_limit_rad: float = struct.field(pytree_node=False, default=TURN_LIMIT_RAD)
+    """The turn the action's range [-1, 1] spans, rad (``EvaderTrainCfg.turn_limit_rad``)."""
+    action_frame: str = struct.field(pytree_node=False, default="heading")
+    """What the turn is added to (``sim.behaviors.learned.ACTION_FRAMES``)."""
 
     def reset(self, key: jax.Array) -> EvaderEnvState:
         ws = sim_env.reset(key, self.world)
@@ -216,11 +227,13 @@ class EvaderEnv:
         return EvaderObs(evader_features(state.world.target, state.world.robot, self.world))
 
     def step(self, state: EvaderEnvState, action: jax.Array):
-        """Turn by ``action[0]`` rad (clipped to [-pi, pi]) while the pursuer acts; returns
-        (state, obs, reward, done, info); info's ``success`` is the evader's (the episode
-        ran out uncaught), ``terminated`` the catch."""
-        turn = jnp.clip(action[0], -TURN_LIMIT_RAD, TURN_LIMIT_RAD)
+        """Head ``action[0]`` rad (clipped to +-``turn_limit_rad``) off the action frame
+        while the pursuer acts; returns (state, obs, reward, done, info); info's
+        ``success`` is the evader's (the episode ran out uncaught), ``terminated`` the
+        catch."""
+        turn = jnp.clip(action[0], -self.turn_limit_rad, self.turn_limit_rad)
         ws = state.world
+        turn = turn_of(turn, ws.target, ws.robot, self.action_frame, self.world)
         behavior_state = ws.target.behavior_state.replace(turn_rad=turn)
         ws = ws.replace(target=ws.target.replace(behavior_state=behavior_state))
         key = jax.random.fold_in(ws.key, PURSUER_STREAM)
@@ -258,8 +271,9 @@ class EvaderEnv:
 
     @property
     def action_spec(self) -> Spec:
-        """The turn, rad, (1,)."""
-        return Spec((1,), jnp.full((1,), -TURN_LIMIT_RAD), jnp.full((1,), TURN_LIMIT_RAD))
+        """The turn, rad, (1,), within +-``turn_limit_rad``."""
+        limit = self.turn_limit_rad
+        return Spec((1,), jnp.full((1,), -limit), jnp.full((1,), limit))
 
 
 def evader_env(
@@ -267,10 +281,13 @@ def evader_env(
     pursuers,
     reward: EvaderRewardCfg | None = None,
     weights: tuple[float, ...] = (),
+    turn_limit_rad: float = TURN_LIMIT_RAD,
+    action_frame: str = "heading",
 ) -> EvaderEnv:
     """An ``EvaderEnv`` in ``world`` (its behaviour set to ``commanded``) against a pursuer
     or a list or tuple of them, one drawn per episode with ``weights`` (one per pursuer,
-    normalised; empty: uniform). Pursuers are policies built for that world
+    normalised; empty: uniform), its action spanning turns of +-``turn_limit_rad`` off
+    ``action_frame``. Pursuers are policies built for that world
     (``policies.registry.BASELINES[name](world)``) or trained runs' (``rl.policy.load_run``)."""
     pursuers = tuple(pursuers) if isinstance(pursuers, list | tuple) else (pursuers,)
     if not pursuers:
@@ -284,4 +301,15 @@ def evader_env(
     frozen = tuple(frozen_pursuer(p) for p in pursuers)
     total = sum(weights)
     weights = tuple(w / total for w in weights)
-    return EvaderEnv(world.with_behavior("commanded"), frozen, reward or EvaderRewardCfg(), weights)
+    if action_frame not in ACTION_FRAMES:
+        raise ValueError(f"action frame {action_frame!r}: choose one of {', '.join(ACTION_FRAMES)}")
+    if not turn_limit_rad > 0:
+        raise ValueError(f"turn_limit_rad {turn_limit_rad}: give a positive turn range, rad")
+    return EvaderEnv(
+        world.with_behavior("commanded"),
+        frozen,
+        reward or EvaderRewardCfg(),
+        weights,
+        float(turn_limit_rad),
+        action_frame,
+    )

@@ -24,7 +24,7 @@ from dyncatch.rl.logging import MetricLog
 from dyncatch.rl.policy import load_run
 from dyncatch.rl.train import TrainState, make_train
 from dyncatch.sim.behaviors.evader_net import EVADER_CHECKPOINT, EvaderNet, save_evader
-from dyncatch.sim.behaviors.learned import FEATURE_NAMES, TURN_LIMIT_RAD
+from dyncatch.sim.behaviors.learned import FEATURE_NAMES, TURN_LIMIT_RAD, ActionFrame
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.validate import validate_world
 from dyncatch.utils.config_io import config_diff
@@ -64,6 +64,19 @@ class EvaderTrainCfg:
     --world.target.evader-checkpoint OUT) and metrics.csv."""
     checkpoint_every: int = 20
     """Iterations between checkpoints (one is always written at the end)."""
+    turn_limit_rad: float = TURN_LIMIT_RAD
+    """The turn, rad, that the action's range [-1, 1] spans (default pi, a reading: any
+    heading change; the body then turns by at most target.max_turn_rate_rps x dt, 0.2 rad a
+    step by default, so every turn beyond that is the same turn). Recorded in the file, so
+    the deployed evader maps actions as in training."""
+    action_frame: ActionFrame = "heading"
+    """What the action's angle is added to for the desired heading
+    (dyncatch.sim.behaviors.learned.ACTION_FRAMES): heading, the target's own heading (a
+    heading change); flee, the direction straight away from the robot, as eq. 11-12 write
+    the reactive target's; reactive, the eq. 11-12 heading without gamma (flee plus the
+    alpha dodge within r_ev, the world's target.* fields), so the action is a correction to
+    the scripted rule. Recorded in the file, so the deployed evader acts as in
+    training."""
     reward: EvaderRewardCfg = EvaderRewardCfg()
     """The evader's reward terms (dyncatch.rl.evader.EvaderRewardCfg)."""
     ppo: PPOCfg = EVADER_PPO
@@ -86,8 +99,14 @@ def evader_header(cfg: EvaderTrainCfg) -> dict:
     }
 
 
-def evader_net_of(ts: TrainState, header: dict) -> EvaderNet:
-    """The actor and normaliser of a training state as a deployable ``EvaderNet``."""
+def evader_net_of(
+    ts: TrainState,
+    header: dict,
+    turn_limit_rad: float = TURN_LIMIT_RAD,
+    action_frame: str = "heading",
+) -> EvaderNet:
+    """The actor and normaliser of a training state as a deployable ``EvaderNet`` whose
+    actions span turns of +-``turn_limit_rad`` from ``action_frame``."""
     actor = jax.device_get(ts.params["params"]["actor"])
     n = len(actor)
     layers = tuple(
@@ -98,9 +117,10 @@ def evader_net_of(ts: TrainState, header: dict) -> EvaderNet:
         layers,
         np.asarray(ts.norm.mean),
         np.asarray(ts.norm.std),
-        TURN_LIMIT_RAD,
+        turn_limit_rad,
         {**header, "iteration": int(ts.iteration), "env_steps": int(ts.env_steps)},
         float(np.exp(np.asarray(ts.params["params"]["log_std"]))[0]),
+        action_frame,
     )
 
 
@@ -152,6 +172,8 @@ def _validate(cfg: EvaderTrainCfg) -> None:
         )
     if cfg.against_weights and (min(cfg.against_weights) < 0 or sum(cfg.against_weights) <= 0):
         raise ValueError("--against-weights must be non-negative with a positive sum")
+    if not cfg.turn_limit_rad > 0:
+        raise ValueError(f"--turn-limit-rad {cfg.turn_limit_rad}: give a positive turn, rad")
     if cfg.total_steps < 1 or cfg.checkpoint_every < 1:
         raise ValueError("--total-steps and --checkpoint-every must be >= 1")
     validate_ppo(cfg.ppo)
@@ -185,7 +207,9 @@ def train_evader(cfg: EvaderTrainCfg, progress: Progress | None = None) -> dict[
     if path.exists():
         raise ValueError(f"{path} exists: choose another --out (evader runs do not resume)")
     pursuers = [load_pursuer(name, cfg.world) for name in cfg.against]
-    env = evader_env(cfg.world, pursuers, cfg.reward, cfg.against_weights)
+    env = evader_env(
+        cfg.world, pursuers, cfg.reward, cfg.against_weights, cfg.turn_limit_rad, cfg.action_frame
+    )
     weights, skeleton = split_arrays(env)
     ts = evader_init(weights, jax.random.key(cfg.seed), skeleton, cfg.ppo)
     header = evader_header(cfg)
@@ -205,7 +229,7 @@ def train_evader(cfg: EvaderTrainCfg, progress: Progress | None = None) -> dict[
             log.write(it + 1, int(ts.env_steps), metrics)
             update(it + 1, f"escaped {metrics['success_rate']:.2f}")
             if (it + 1) % cfg.checkpoint_every == 0 or it + 1 == total_iters:
-                save_evader(path, evader_net_of(ts, header))
+                save_evader(path, evader_net_of(ts, header, cfg.turn_limit_rad, cfg.action_frame))
     finally:
         log.close()
     return metrics

@@ -4,7 +4,8 @@ The ``learned`` behaviour runs it inside the world's step; the simulator may not
 trainer's Flax networks (``rl`` sits above ``sim``), so the actor is stored as a list of
 dense layers and evaluated here with the same ELU the trainer's ``rl.networks.MLP`` uses.
 The file is one safetensors checkpoint (``utils.tree_io``: atomic, checksummed, no pickle)
-whose header records the architecture, the feature names and the turn range, so a file
+whose header records the architecture, the feature names, the turn range and what the turn
+is added to (its action frame), so a file
 is refused when it does not match the features this version computes.
 """
 
@@ -54,6 +55,9 @@ class EvaderNet:
     header: dict
     action_std: float | None = None
     """The trained Gaussian policy's std, in action units ([-1, 1] spans the turn range)."""
+    action_frame: str = "heading"
+    """What the turn is added to (``sim.behaviors.learned.ACTION_FRAMES``): ``heading``, the
+    target's own heading, in a file that does not record it."""
 
     def action_mean(self, features: jax.Array) -> jax.Array:
         """The actor's mean action, (), from the features (D,), normalised and clipped as
@@ -95,6 +99,7 @@ def save_evader(path: str | os.PathLike, net: EvaderNet) -> Path:
         "activation": "elu",
         "turn_limit_rad": float(net.turn_limit_rad),
         "action_std": None if net.action_std is None else float(net.action_std),
+        "action_frame": net.action_frame,
     }
     tree = actor_tree(
         [(np.asarray(k, np.float32), np.asarray(b, np.float32)) for k, b in net.layers],
@@ -175,4 +180,5 @@ def _load_cached(path: str, mtime_ns: int, size: int, feature_names: tuple[str, 
         turn_limit,
         header,
         None if header.get("action_std") is None else float(header["action_std"]),
+        str(header.get("action_frame", "heading")),
     )

@@ -2,8 +2,9 @@
 (``commanded``).
 
 Both see what a fleeing animal could: ``evader_features`` of (target, robot), the same pure
-function the evader's trainer (``dyncatch.rl.evader``) observes. Each step the evader picks a
-turn; the desired heading is the current heading plus it, and the body then turns toward it
+function the evader's trainer (``dyncatch.rl.evader``) observes. Each step the evader picks an
+angle; the desired heading is its action frame (``ACTION_FRAMES``: its own heading by
+default, the flee direction, or the eq. 11-12 heading) plus it, and the body then turns toward it
 under the turn-rate limit and runs at the episode's speed cap, exactly as the scripted
 targets do (``sim.target.steer``). Speed is not the evader's to choose: it always runs at its
 cap (a reading; the issue allows any speed up to the cap, which is not built).
@@ -16,7 +17,7 @@ applies the turn the evader trainer writes into its state.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 import jax
 import jax.numpy as jnp
@@ -24,8 +25,9 @@ from flax import struct
 
 from dyncatch.sim.behaviors.base import Behavior, Check, uniform_init
 from dyncatch.sim.behaviors.evader_net import EvaderCheckpointError, EvaderNet, load_evader
+from dyncatch.sim.behaviors.reactive import flee_and_dodge
 from dyncatch.sim.fields import static
-from dyncatch.sim.geometry import rotate, world_to_body
+from dyncatch.sim.geometry import rotate, world_to_body, wrap_angle
 from dyncatch.sim.state import RobotState, TargetState
 
 if TYPE_CHECKING:
@@ -47,8 +49,50 @@ FEATURE_NAMES = (
 """The evader's observation, in order (``evader_features``)."""
 EVADER_OBS_DIM = len(FEATURE_NAMES)
 TURN_LIMIT_RAD = math.pi
-"""The evader's action is a heading change in [-pi, pi] per control step (the body's
-turn-rate limit then clips what it can do in one step, 0.2 rad at 10 rad/s and 50 Hz)."""
+"""The default range of the evader's action, an angle in [-pi, pi] from its action frame
+(``ACTION_FRAMES``) per control step (the body's turn-rate limit then clips what it can do
+in one step, 0.2 rad at 10 rad/s and 50 Hz)."""
+
+
+def off_heading(angle_rad: jax.Array, target: TargetState, robot: RobotState, cfg: WorldCfg):
+    """The action is the heading change itself, () rad."""
+    del target, robot, cfg
+    return angle_rad
+
+
+def off_flee_direction(
+    angle_rad: jax.Array, target: TargetState, robot: RobotState, cfg: WorldCfg
+) -> jax.Array:
+    """The action is the desired heading relative to the direction straight away from the
+    robot, atan2(x_obj - x_rob), as eq. 11-12 write the reactive target's (a 60 deg dodge
+    is then one constant action); the heading change to it, () rad in [-pi, pi)."""
+    del cfg
+    d = target.xy_m - robot.xy_m
+    return wrap_angle(jnp.arctan2(d[1], d[0]) + angle_rad - target.heading_rad)
+
+
+def off_reactive(
+    angle_rad: jax.Array, target: TargetState, robot: RobotState, cfg: WorldCfg
+) -> jax.Array:
+    """The action is a correction to the eq. 11-12 target's heading without gamma (flee,
+    plus the alpha dodge within r_ev, with the world's ``target.*`` reactive fields): an
+    action of 0 is that rule; the heading change to it, () rad in [-pi, pi)."""
+    return wrap_angle(flee_and_dodge(target, robot, cfg) + angle_rad - target.heading_rad)
+
+
+ActionFrame = Literal["heading", "flee", "reactive"]
+ACTION_FRAMES = {"heading": off_heading, "flee": off_flee_direction, "reactive": off_reactive}
+"""What the evader's action, an angle in [-turn_limit, turn_limit], is measured from: each
+entry gives the heading change it asks for (the body then turns by at most the turn-rate
+limit). ``heading``: the target's own heading; ``flee``: the flee direction; ``reactive``:
+the eq. 11-12 heading without gamma (a residual on the scripted rule)."""
+
+
+def turn_of(
+    angle_rad: jax.Array, target: TargetState, robot: RobotState, frame: str, cfg: WorldCfg
+) -> jax.Array:
+    """The heading change, () rad, that the action ``angle_rad`` in ``frame`` asks for."""
+    return ACTION_FRAMES[frame](angle_rad, target, robot, cfg)
 
 
 @struct.dataclass
@@ -66,7 +110,8 @@ class EvaderState:
     """The state of ``learned`` and ``commanded`` targets."""
 
     turn_rad: jax.Array
-    """commanded: the turn the trainer set for this step, (); learned: the last turn."""
+    """commanded: the turn the trainer set for this step, (); learned: the last turn; both
+    the desired heading less the heading, rad, whatever the action frame."""
     corner_xy_m: jax.Array
     """The arena square's lower corner (the scene frame's origin) in the local frame, (2,);
     it moves with the frame (``sim.frame.recentre``), so the walls are known at each step."""
@@ -117,13 +162,14 @@ def evader_net(cfg: WorldCfg) -> EvaderNet:
 def learned_heading(
     target: TargetState, robot: RobotState, cfg: WorldCfg, key: jax.Array
 ) -> tuple[jax.Array, EvaderState]:
-    """Current heading plus the frozen actor's mean turn (deterministic; ``key`` unused), or
-    a turn drawn around it with ``key`` where ``target.evader_sample``."""
+    """The frozen actor's mean turn (deterministic; ``key`` unused), or a turn drawn around
+    it with ``key`` where ``target.evader_sample``, added to its action frame (the file's
+    ``action_frame``: the current heading or the flee direction)."""
     net = evader_net(cfg)
     action = net.action_mean(evader_features(target, robot, cfg))
     if cfg.target.evader_sample:
         action = action + net.action_std * jax.random.normal(key, ())
-    turn = net.turn(action)
+    turn = turn_of(net.turn(action), target, robot, net.action_frame, cfg)
     return target.heading_rad + turn, target.behavior_state.replace(turn_rad=turn)
 
 
@@ -140,9 +186,14 @@ def learned_validate(cfg: WorldCfg) -> list[Check]:
         evader_net(cfg)
     except EvaderCheckpointError as err:
         return [(False, "target.evader_checkpoint", str(err))]
-    no_std = cfg.target.evader_sample and evader_net(cfg).action_std is None
+    net = evader_net(cfg)
+    no_std = cfg.target.evader_sample and net.action_std is None
     why = "its file records no action std (written before it was recorded); retrain it"
-    return [(not no_std, "target.evader_sample", why)]
+    frame = f"its action frame {net.action_frame!r} is none of {', '.join(ACTION_FRAMES)}"
+    return [
+        (not no_std, "target.evader_sample", why),
+        (net.action_frame in ACTION_FRAMES, "target.evader_checkpoint", frame),
+    ]
 
 
 LEARNED = Behavior(

@@ -91,19 +91,25 @@ def beta_rad(target: TargetState, robot: RobotState, flee_rad: jax.Array, cfg: W
     return wrap_angle(flee_rad - robot.yaw_rad)
 
 
+def flee_and_dodge(target: TargetState, robot: RobotState, cfg: WorldCfg) -> jax.Array:
+    """Eq. 11-12 without gamma, () rad: flee the robot, dodging sideways by alpha within
+    r_ev."""
+    d = target.xy_m - robot.xy_m
+    flee = jnp.arctan2(d[1], d[0])
+    beta = beta_rad(target, robot, flee, cfg)
+    tc = cfg.target
+    close = jnp.sum(d * d) <= tc.evade_radius_m**2
+    dodge = jnp.where(close, jnp.sign(beta) * tc.evade_angle_rad, 0.0)
+    return flee + dodge
+
+
 def reactive_turn(
     target: TargetState, robot: RobotState, gamma: GammaState, cfg: WorldCfg, key: jax.Array
 ) -> tuple[jax.Array, GammaState]:
     """Flee the robot, dodging sideways by alpha within r_ev, plus gamma (held as
     ``gamma_hold_s`` says): (desired heading (), the gamma state after this step)."""
-    d = target.xy_m - robot.xy_m
-    flee = jnp.arctan2(d[1], d[0])
-    beta = beta_rad(target, robot, flee, cfg)
-    tc = cfg.target
     gamma = held_gamma(gamma, cfg, key)
-    close = jnp.sum(d * d) <= tc.evade_radius_m**2
-    dodge = jnp.where(close, jnp.sign(beta) * tc.evade_angle_rad, 0.0)
-    return flee + dodge + gamma.gamma_rad, gamma
+    return flee_and_dodge(target, robot, cfg) + gamma.gamma_rad, gamma
 
 
 def reactive_heading(
