@@ -1,23 +1,27 @@
-"""Self-play rounds: two tiny rounds end to end, a resume that trains nothing, an
-interrupted stage made again, more rounds reusing the finished ones, a changed config
-refused naming the flag, and the exploitability row by hand."""
+"""Self-play rounds: two tiny rounds end to end, the cross-evaluation's cells (one by hand),
+a resume that trains and evaluates nothing, an interrupted stage made again, more rounds
+reusing the finished ones, a changed config refused naming the flag, and the exploitability
+row by hand."""
 
 import dataclasses
 import json
 import math
 
+import jax
 import numpy as np
 import pytest
 
 from dyncatch.cli.main import main
+from dyncatch.evaluation.episodes import run_episodes_at_speeds
 from dyncatch.evaluation.intervals import t_quantile
 from dyncatch.rl import selfplay
 from dyncatch.rl.config import PPOCfg
-from dyncatch.rl.exploitability import exploitability
-from dyncatch.rl.policy import CHECKPOINT
+from dyncatch.rl.cross_eval import shared_policy
+from dyncatch.rl.exploitability import EXPLOIT_EVAL_STREAM, best_response_world, exploitability
+from dyncatch.rl.policy import CHECKPOINT, load_run
 from dyncatch.rl.selfplay import SelfPlayRunner
 from dyncatch.rl.selfplay_cfg import SelfPlayCfg
-from dyncatch.rl.stages import Stage, run_stage
+from dyncatch.rl.stages import Stage, run_stage, stage_done
 from dyncatch.sim.behaviors.evader_net import EVADER_CHECKPOINT
 from dyncatch.utils.tree_io import read_header
 
@@ -48,8 +52,8 @@ def tiny(out, **fields) -> SelfPlayCfg:
 @pytest.fixture(scope="module")
 def study(tmp_path_factory):
     cfg = tiny(tmp_path_factory.mktemp("selfplay") / "study")
-    rows = SelfPlayRunner(cfg).learn()
-    return cfg, rows
+    summary = SelfPlayRunner(cfg).learn()
+    return cfg, summary
 
 
 def _no_training(monkeypatch):
@@ -60,13 +64,21 @@ def _no_training(monkeypatch):
     monkeypatch.setattr(selfplay, "make_runner", refuse)
 
 
+def _no_evaluation(monkeypatch):
+    def refuse(*args):
+        raise RuntimeError("evaluated")
+
+    monkeypatch.setattr(selfplay, "evaluate_pursuer", refuse)
+    monkeypatch.setattr(selfplay, "evaluate_runs", refuse)
+
+
 def _checkpoints(out):
     return {p: p.stat().st_mtime_ns for p in out.rglob("*.safetensors")}
 
 
 class TestTwoRounds:
     def test_every_stage_is_made(self, study):
-        cfg, rows = study
+        cfg, summary = study
         out = cfg.out
         for k in (0, 1):
             assert (out / f"round{k}" / "evader" / EVADER_CHECKPOINT).exists()
@@ -76,8 +88,9 @@ class TestTwoRounds:
                     out / f"round{k}" / "exploit" / "rl" / f"seed{s}" / EVADER_CHECKPOINT
                 ).exists()
                 assert (out / f"round{k}" / "eval" / "rl" / f"seed{s}" / "done.json").exists()
-        assert json.loads((out / "summary.json").read_text()) == rows
+        assert json.loads((out / "summary.json").read_text()) == summary
         assert "| 1 | rl | 2 |" in (out / "summary.md").read_text()
+        assert "| rl | 1 | round0 | 2 |" in (out / "summary.md").read_text()
 
     def test_round_k_plays_the_last_pursuers_and_the_league_of_evaders_0_to_k(self, study):
         cfg, _ = study
@@ -98,7 +111,8 @@ class TestTwoRounds:
         assert br["against"] == [str(out / "round1" / "pursuer" / "rl" / "seed1")]
 
     def test_rows_are_the_seeds_means(self, study):
-        cfg, rows = study
+        cfg, summary = study
+        rows = summary["rounds"]
         assert [(r["round"], r["method"], r["seeds"]) for r in rows] == [(0, "rl", 2), (1, "rl", 2)]
         for r in rows:
             evals = [
@@ -117,23 +131,93 @@ class TestTwoRounds:
             assert r["round_time_s"] > 0
 
 
+class TestCrossEvaluation:
+    OPPONENTS = ("round0", "round1", "reactive")
+
+    def _result(self, cfg, k, opponent):
+        done = cfg.out / f"round{k}" / "cross" / "rl" / opponent / "done.json"
+        return json.loads(done.read_text())["result"]
+
+    def test_one_cell_per_method_seed_round_opponent_and_speed(self, study):
+        cfg, summary = study
+        rows = summary["cross_eval"]
+        assert [(r["method"], r["pursuer_round"], r["opponent"]) for r in rows] == [
+            ("rl", k, o) for k in (0, 1) for o in self.OPPONENTS
+        ]
+        cells = 0
+        for r in rows:
+            got = self._result(cfg, r["pursuer_round"], r["opponent"])
+            assert np.shape(got["success"]) == np.shape(got["catch_time_s"]) == (2, 1)
+            cells += np.size(got["success"])
+            assert r["seeds"] == 2 and r["speeds_mps"] == [1.6]
+            assert r["success"]["mean"] == pytest.approx(np.mean(got["success"]))
+            assert r["catch_time_s"]["mean"] == pytest.approx(np.mean(got["catch_time_s"]))
+            caught = np.asarray(got["success"]) * cfg.eval_episodes  # 8 episodes a cell
+            assert np.allclose(caught, np.round(caught))
+            times = np.asarray(got["catch_time_s"])
+            assert np.all((times > 0) & (times <= cfg.world.episode.duration_s))
+        assert cells == 1 * 2 * 2 * 3 * 1  # methods x seeds x rounds x opponents x speeds
+        assert summary["compare"] == []  # sp_rl is not trained here
+        assert summary["cross_eval_time_s"] > 0
+
+    def test_a_cell_by_hand(self, study):
+        # Round 1's seed 1 against round 0's evader with the evaluation's keys, in the
+        # program the stage compiled (shared_policy; the next test checks what it changes).
+        cfg, _ = study
+        world = best_response_world(cfg.world, cfg.out / "round0" / "evader")
+        run = load_run(cfg.out / "round1" / "pursuer" / "rl" / "seed1").policy
+        key = jax.random.fold_in(jax.random.key(cfg.eval_seed), EXPLOIT_EVAL_STREAM)
+        policy = shared_policy(run, world)
+        out = run_episodes_at_speeds(policy, jax.random.split(key, 1), world, [1.6], 8)
+        got = self._result(cfg, 1, "round0")
+        for name in ("success", "catch_time_s"):
+            assert got[name][1] == [float(np.asarray(out[name], float).mean())]
+
+    def test_every_rounds_pursuer_shares_one_program_per_opponent(self, study):
+        cfg, _ = study
+        world = best_response_world(cfg.world, cfg.out / "round1" / "evader")
+        runs = [cfg.out / f"round{k}" / "pursuer" / "rl" / "seed0" for k in (0, 1)]
+        p0, p1 = (load_run(run).policy for run in runs)
+        assert jax.tree.structure(p0) != jax.tree.structure(p1)  # their leagues differ
+        shared = [shared_policy(p, world) for p in (p0, p1)]
+        assert jax.tree.structure(shared[0]) == jax.tree.structure(shared[1])
+        # What the policy reads from its environment, the command limits, is unchanged.
+        for before, after in zip((p0, p1), shared, strict=True):
+            a, b = before.env.action_spec, after.env.action_spec
+            assert np.array_equal(a.low, b.low) and np.array_equal(a.high, b.high)
+            assert after.env.world.replace(target=before.env.world.target) == before.env.world
+
+    def test_more_rounds_add_only_the_missing_cells(self, study):
+        cfg, _ = study
+        runner = SelfPlayRunner(dataclasses.replace(cfg, rounds=3))
+        stages = [s for k in (0, 1) for s in runner.cross_stages(k, "rl")]
+        missing = [s.name for s in stages if stage_done(s) is None]
+        assert missing == ["round0/cross/rl/round2", "round1/cross/rl/round2"]
+
+    def test_turning_it_off_is_a_changed_flag(self, study):
+        cfg, _ = study
+        with pytest.raises(ValueError, match=r"--cross-eval \(True -> False\)"):
+            SelfPlayRunner(dataclasses.replace(cfg, cross_eval=False)).learn()
+
+
 class TestResume:
-    def test_a_second_run_trains_nothing(self, study, monkeypatch):
-        cfg, rows = study
+    def test_a_second_run_trains_and_evaluates_nothing(self, study, monkeypatch):
+        cfg, summary = study
         before = _checkpoints(cfg.out)
         _no_training(monkeypatch)
-        assert SelfPlayRunner(cfg).learn() == rows
+        _no_evaluation(monkeypatch)
+        assert SelfPlayRunner(cfg).learn() == summary
         assert _checkpoints(cfg.out) == before
 
     def test_an_interrupted_stage_is_made_again(self, study, monkeypatch):
-        cfg, rows = study
+        cfg, summary = study
         stage = cfg.out / "round1" / "eval" / "rl" / "seed1"
         (stage / "done.json").unlink()
         (stage / "partial.tmp").write_text("left by a crash")
         _no_training(monkeypatch)  # the evaluation is made again, nothing is trained
         again = SelfPlayRunner(cfg).learn()
         assert (stage / "done.json").exists() and not (stage / "partial.tmp").exists()
-        for a, b in zip(again, rows, strict=True):
+        for a, b in zip(again["rounds"], summary["rounds"], strict=True):
             assert a["league"] == b["league"] and a["best_response"] == b["best_response"]
 
     def test_more_rounds_reuse_the_finished_ones(self, study, monkeypatch):
@@ -172,6 +256,8 @@ class TestBadInput:
             ({"first_pursuers": ("nobody",)}, "--first-pursuers"),
             ({"league_behaviors": ("bounce",)}, "league_behaviors"),
             ({"league_scripted_share": 2.0}, "league_scripted_share"),
+            ({"compare": ("rl", "rl")}, "--compare rl rl"),
+            ({"compare": ("sp_rl", "rll")}, "--compare sp_rl rll"),
         ],
     )
     def test_names_the_flag(self, tmp_path, fields, words):

@@ -18,8 +18,8 @@ def run_evader_train(cfg: EvaderTrainCfg) -> dict[str, float]:
     return metrics
 
 
-def run_evader_selfplay(cfg: SelfPlayCfg) -> list[dict]:
+def run_evader_selfplay(cfg: SelfPlayCfg) -> dict:
     with rich_progress() as progress:
-        rows = SelfPlayRunner(cfg).learn(progress)
+        summary = SelfPlayRunner(cfg).learn(progress)
     print((cfg.out / "summary.md").read_text(), end="")
-    return rows
+    return summary

@@ -13,10 +13,15 @@ Round k (0-based):
    success against the round's league and against its best response
    (``rl.exploitability``).
 
+After every round (``cross_eval``), ``round{k}/cross/{method}/{opponent}``: round k's
+pursuers of one method (all seeds) against one opponent alone, round j's evader
+(``round{j}``) or a scripted league member (``rl.cross_eval``).
+
 Layout under ``out``: ``selfplay.json`` (the config; another is refused, naming the field),
-``round{k}/{evader,pursuer/{method},exploit/{method}/seed{s},eval/{method}/seed{s}}/``
-(each finished by ``done.json``, ``rl.stages``) and ``summary.json`` / ``summary.md``.
-Adding rounds to a finished study (a larger ``--rounds``) reuses every finished stage.
+``round{k}/{evader,pursuer/{method},exploit/{method}/seed{s},eval/{method}/seed{s},
+cross/{method}/{opponent}}/`` (each finished by ``done.json``, ``rl.stages``) and
+``summary.json`` / ``summary.md``. Adding rounds to a finished study (a larger
+``--rounds``) reuses every finished stage.
 """
 
 from __future__ import annotations
@@ -25,8 +30,21 @@ import dataclasses
 from pathlib import Path
 
 from dyncatch.evaluation.intervals import CONFIDENCE
+from dyncatch.rl.cross_eval import (
+    Opponent,
+    cross_rows,
+    cross_table,
+    difference_rows,
+    difference_table,
+    evaluate_runs,
+)
 from dyncatch.rl.evader_train import EvaderTrainCfg, train_evader
-from dyncatch.rl.exploitability import evaluate_pursuer, summary_rows, write_summary
+from dyncatch.rl.exploitability import (
+    best_response_world,
+    evaluate_pursuer,
+    summary_rows,
+    summary_table,
+)
 from dyncatch.rl.methods import get_method
 from dyncatch.rl.runner import TrainRunCfg, seed_cfgs
 from dyncatch.rl.seeds import make_runner
@@ -171,21 +189,97 @@ class SelfPlayRunner:
             Stage(f"round{k}/eval/{name}", cfg.out / f"round{k}" / "eval" / name, spec, evaluate),
         ]
 
-    def learn(self, progress: Progress | None = None) -> list[dict]:
-        """Every round's stages (finished ones skipped); returns the summary rows."""
+    def opponents(self) -> list[Opponent]:
+        """Every round's evader, then each scripted league member, in the study's world."""
+        cfg = self.cfg
+        evaders = [
+            Opponent(f"round{j}", best_response_world(cfg.world, evader_path(cfg.out, j)))
+            for j in range(cfg.rounds)
+        ]
+        scripted = [Opponent(b, cfg.world.with_behavior(b)) for b in cfg.league_behaviors]
+        return evaders + scripted
+
+    def cross_stages(self, k: int, method: str) -> list[Stage]:
+        """Round ``k``'s pursuers of ``method`` (every seed) against each opponent."""
+        cfg = self.cfg
+        runs = [run.out for run in pursuer_runs(cfg, k, method)]
+        stages = []
+        for opp in self.opponents():
+
+            def evaluate(progress: Progress | None, world=opp.world) -> dict:
+                del progress
+                return evaluate_runs(
+                    runs, world, cfg.eval_speeds_mps, cfg.eval_episodes, cfg.eval_seed
+                )
+
+            spec = {
+                "runs": [str(r) for r in runs],
+                "opponent": opp.name,
+                "world": to_json(opp.world),
+                "speeds_mps": list(cfg.eval_speeds_mps),
+                "episodes": cfg.eval_episodes,
+                "eval_seed": cfg.eval_seed,
+            }
+            name = f"round{k}/cross/{method}/{opp.name}"
+            stages.append(Stage(name, cfg.out / name, spec, evaluate))
+        return stages
+
+    def _run(self, stage: Stage, progress: Progress | None) -> dict:
+        bar = progress or NoProgress()
+        bar.task(stage.name, 1)(0, "running")
+        done = run_stage(stage, progress)
+        bar.task(stage.name, 1)(1, "skipped (done)" if done["skipped"] else "done")
+        return done
+
+    def cross_evaluate(self, progress: Progress | None = None) -> tuple[list[dict], float]:
+        """The cross-evaluation's cells ``{"method", "pursuer_round", "opponent", "result"}``
+        and their time (s, each stage's as first made)."""
+        cfg = self.cfg
+        cells, time_s = [], 0.0
+        for k in range(cfg.rounds):
+            for method in cfg.methods:
+                for stage in self.cross_stages(k, method):
+                    done = self._run(stage, progress)
+                    time_s += done["time_s"]
+                    opponent = stage.spec["opponent"]
+                    cell = {"method": method, "pursuer_round": k, "opponent": opponent}
+                    cells.append({**cell, "result": done["result"]})
+        return cells, time_s
+
+    def learn(self, progress: Progress | None = None) -> dict:
+        """Every round's stages, then the cross-evaluation (finished ones skipped); returns
+        the summary: ``rounds`` (exploitability and round time per round and method),
+        ``cross_eval`` (``rl.cross_eval.cross_rows``), ``compare``
+        (``rl.cross_eval.difference_rows``) and ``cross_eval_time_s``."""
         cfg = self.cfg
         check_study(cfg)
-        bar = progress or NoProgress()
         records: list[tuple[int, Stage, dict]] = []
         for k in range(cfg.rounds):
             for stage in self.round_stages(k):
-                bar.task(stage.name, 1)(0, "running")
-                done = run_stage(stage, progress)
-                bar.task(stage.name, 1)(1, "skipped (done)" if done["skipped"] else "done")
-                records.append((k, stage, done))
-        rows = summary_rows(records, cfg.methods, CONFIDENCE)
-        write_summary(cfg.out, rows)
-        return rows
+                records.append((k, stage, self._run(stage, progress)))
+        cells, cross_time_s = self.cross_evaluate(progress) if cfg.cross_eval else ([], 0.0)
+        summary = {
+            "rounds": summary_rows(records, cfg.methods, CONFIDENCE),
+            "cross_eval": cross_rows(cells, CONFIDENCE),
+            "compare": difference_rows(cells, tuple(cfg.compare), CONFIDENCE),
+            "cross_eval_time_s": cross_time_s,
+        }
+        write_summary(cfg.out, summary)
+        return summary
+
+
+def write_summary(out: Path, summary: dict) -> None:
+    """``out/summary.json`` and ``out/summary.md`` (the exploitability table, then the
+    cross-evaluation's and the methods' difference where there are any)."""
+    write_json(out / "summary.json", summary)
+    lines = summary_table(summary["rounds"])
+    for title, table in (
+        ("Cross-evaluation", cross_table(summary["cross_eval"])),
+        ("Difference of methods", difference_table(summary["compare"])),
+    ):
+        if table:
+            lines += ["", f"## {title}", "", *table]
+    (out / "summary.md").write_text("\n".join(lines) + "\n")
 
 
 def _trainer(pc: TrainRunCfg):

@@ -10,7 +10,7 @@ from dyncatch.policies.registry import BASELINES
 from dyncatch.rl.config import PPOCfg, validate_ppo
 from dyncatch.rl.evader import EvaderRewardCfg
 from dyncatch.rl.evader_train import EVADER_PPO, EVADER_WORLD
-from dyncatch.rl.methods import MethodName, get_method
+from dyncatch.rl.methods import METHODS, MethodName, get_method
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.validate import validate_world
 from dyncatch.utils.files import check_out_dir
@@ -57,6 +57,13 @@ class SelfPlayCfg:
     """Evaluation episodes per speed, per pursuer and opponent."""
     eval_seed: int = 0
     """Seed of the evaluation episodes (the same episodes for every pursuer)."""
+    cross_eval: bool = True
+    """Evaluate every trained pursuer against every round's evader and each scripted
+    league member alone, at --eval-speeds-mps (rl.cross_eval; the summary's cross table)."""
+    compare: tuple[MethodName, MethodName] = ("sp_rl", "rl")
+    """The two methods whose difference (first - second) the summary gives against each
+    opponent of the cross-evaluation, with Welch's interval over seeds, where both are in
+    --methods (the summary only: it may change between runs of one study)."""
     pursuer_eval_every: int = 0
     """Iterations between the pursuer runs' own evaluations (0: none, the exploit stage
     evaluates them)."""
@@ -71,8 +78,9 @@ class SelfPlayCfg:
     for pursuers); training caps drawn in [1.4, 1.8] m/s by default."""
 
 
-RESUMABLE_FIELDS = ("out", "rounds")
-"""Fields that may change between invocations of one study (a larger --rounds extends it)."""
+RESUMABLE_FIELDS = ("out", "rounds", "compare")
+"""Fields that may change between invocations of one study (a larger --rounds extends it;
+--compare shapes only the summary)."""
 
 
 def validate_selfplay(cfg: SelfPlayCfg) -> None:
@@ -112,6 +120,11 @@ def validate_selfplay(cfg: SelfPlayCfg) -> None:
         raise ValueError(f"--exploit-steps {cfg.exploit_steps}: use 0 (off) or more")
     if cfg.eval_episodes < 1 or not cfg.eval_speeds_mps:
         raise ValueError("--eval-episodes must be >= 1 and --eval-speeds-mps non-empty")
+    unknown = [name for name in cfg.compare if name not in METHODS]
+    if unknown or cfg.compare[0] == cfg.compare[1]:
+        raise ValueError(
+            f"--compare {' '.join(cfg.compare)}: name two different methods of {', '.join(METHODS)}"
+        )
     if cfg.pursuer_eval_every < 0:
         raise ValueError("--pursuer-eval-every must be >= 0 (0: no evaluation in training)")
     validate_ppo(cfg.evader_ppo)
