@@ -11,6 +11,13 @@ trained on reactive over seeds, sp_fp, pursuit and intercept evaluated at 1.4, 1
 the same command resumes where it stopped (even in another session); ``summary.md`` and
 ``summary.json`` are written from whatever settings have finished. ``--dry-run`` prints
 the plan and its estimate.
+
+Every setting here fed the policy the held sighting's age and the visible flag, the
+standard observation of its day (its plan.json files predate the field that names it);
+issue 32 then made the paper's observation, without them, the default. Each command passes
+``--world.observation.staleness-inputs`` so that the recorded settings resume and the ones
+not yet run compare with them; ``default`` is thus the standard setting of the study's
+day, today's reading ``staleness_observation``.
 """
 
 from __future__ import annotations
@@ -67,6 +74,7 @@ def study_argv(out: Path, setting: tuple[str, ...], args) -> list[str]:
     argv += ["--no-vmap-seeds"]
     if setting:
         argv += ["--setting", *setting]
+    argv += ["--world.observation.staleness-inputs"]  # the recorded settings' observation
     return argv + list(args.world_flags)
 
 

@@ -24,6 +24,11 @@ The criterion, written down before any of these runs existed (commit of this fil
   criterion at 5 seeds carries that risk.
 
 ``summary.md`` and ``summary.json`` (in ``--summary-dir``, committed) carry the table.
+
+Its runs fed the policy the held sighting's age and the visible flag, the standard
+observation until issue 32 made the paper's (without them) the default; every command
+passes ``--world.observation.staleness-inputs`` so that the recorded folders resume and
+their plan.json files still match (the parity study's ``default`` shares their runs).
 """
 
 from __future__ import annotations
@@ -54,7 +59,7 @@ def study_argv(args, size: tuple[int, ...]) -> list[str]:
     argv += ["--seeds", str(args.seeds), "--train-steps", str(args.train_steps)]
     argv += ["--episodes", str(args.episodes), "--speeds-mps", *SPEEDS]
     argv += ["--behaviors", *BEHAVIORS, "--ppo.hidden-sizes", *map(str, size)]
-    argv += ["--no-table-ii", "--transfer-behaviors"]
+    argv += ["--no-table-ii", "--transfer-behaviors", "--world.observation.staleness-inputs"]
     return argv + ["--no-videos", "--no-fig9", "--no-vmap-seeds"]
 
 

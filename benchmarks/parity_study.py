@@ -53,6 +53,14 @@ unchanged; the added settings join its Holm family):
   after the 5-seed primary pass, where ``success_every_step`` alone lowered rl to 0.00 on
   every seed while sp_rl kept catching, so its rnn_rl and gt_rl answer the secondary
   questions first.
+
+The study's ``default`` is the standard setting it began under, whose observation feeds the
+held sighting's age and the visible flag; issue 32 then made the paper's observation (the
+reading ``paper_observation`` here) the library's default. So every command of a setting
+without ``paper_observation`` passes ``STALENESS_FLAG``: each setting, its folder name and
+its plan.json stay what they were, and the study resumes unchanged. ``default`` here is
+thus the reading ``staleness_observation`` of today's library, and ``paper_observation``'s
+effect against it is the effect of the standard's change.
 """
 
 from __future__ import annotations
@@ -87,6 +95,13 @@ PRIMARY_METHODS = ("rl", "sp_rl")
 PAIRS = (("sp_rl", "rl"), ("rnn_rl", "rl"), ("sp_rl", "rnn_rl"))
 PRIMARY_PREFIX = "primary_s"
 PRIMARY_BEHAVIORS = ("reactive",)
+STALENESS_FLAG = "--world.observation.staleness-inputs"
+"""The study's baseline observation, pinned: it began when the standard observation fed the
+sighting's age and the visible flag (issue 32 then made the paper's s, without them, the
+standard). Every setting without ``paper_observation`` keeps them, so ``default`` and each
+reading are what their recorded plan.json and finished runs say. A flag, not the reading
+``staleness_observation``: plan.json records the ``--setting`` list, and the folder names
+come from it, so both stay as recorded."""
 
 
 def study_argv(args, setting: tuple[str, ...], primary_seeds: int | None = None) -> list[str]:
@@ -105,6 +120,8 @@ def study_argv(args, setting: tuple[str, ...], primary_seeds: int | None = None)
     argv += ["--no-videos", "--no-fig9", "--no-vmap-seeds"]
     if setting:
         argv += ["--setting", *setting]
+    if "paper_observation" not in setting:
+        argv.append(STALENESS_FLAG)
     if args.hidden_sizes:
         argv += ["--ppo.hidden-sizes", *map(str, args.hidden_sizes)]
     return argv

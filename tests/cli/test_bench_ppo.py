@@ -35,10 +35,10 @@ def test_bench_ppo_json(capsys):
     argv += ["--gemm-rows", "512"]
     assert main(argv) == 0
     r = json.loads(capsys.readouterr().out)
-    # FLOPs by hand for 15 inputs, one hidden layer of 32, 4 epochs:
-    # actor 2*(15*32 + 32*3) = 1152, critic 2*(15*32 + 32) = 1024,
-    # rollout 1152 + 2*1024 = 3200, update 4*(3*(1152 + 1024) - 2*(2*15*32)) = 18432.
-    assert r["flops_per_sample"] == {"rollout": 3200, "update": 18432, "total": 21632}
+    # FLOPs by hand for 13 inputs (the default observation), one hidden layer of 32,
+    # 4 epochs: actor 2*(13*32 + 32*3) = 1024, critic 2*(13*32 + 32) = 896,
+    # rollout 1024 + 2*896 = 2816, update 4*(3*(1024 + 896) - 2*(2*13*32)) = 16384.
+    assert r["flops_per_sample"] == {"rollout": 2816, "update": 16384, "total": 19200}
     # Physically plausible: a CPU's fp32 GEMM peak is GFLOP/s to a few TFLOP/s, and whole
     # PPO iterations cannot beat it (a unit slip of 1e3 would fail here).
     assert 0.5 < r["gemm_peak_gflops"] < 20_000

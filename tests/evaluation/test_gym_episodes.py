@@ -12,8 +12,8 @@ from dyncatch.evaluation.gym_episodes import format_summary, run_gym_episodes
 from dyncatch.evaluation.stats import summarize
 from dyncatch.gym.catch_env import CatchEnv
 from dyncatch.gym.vector_env import CatchVectorEnv
+from dyncatch.sim.api import obs_layout
 from dyncatch.sim.config import EpisodeCfg, WorldCfg
-from dyncatch.sim.state import Obs
 
 NUM_ENVS = 4
 # 3 s episodes of a target standing still: some catches, some failures, and the envs that
@@ -21,7 +21,7 @@ NUM_ENVS = 4
 WORLD = WorldCfg(episode=EpisodeCfg(duration_s=3.0)).with_speed(0.0)
 
 
-_LAYOUT = Obs.layout(WORLD.scene.scan_rays)
+_LAYOUT = obs_layout(WORLD)
 _SIGHTING = sum(size for _, size in _LAYOUT[: [n for n, _ in _LAYOUT].index("target_obs_body_m")])
 """Where target_obs_body_m starts in ``Obs.flat``."""
 

@@ -164,7 +164,9 @@ def test_the_layout_names_the_slots_of_the_real_input_vectors(runs, recorded):
     v_body = world_to_body(v_world, states.robot.yaw_rad) * ok
     np.testing.assert_allclose(named["target_vel_body_mps"], v_body, atol=1e-6)
     np.testing.assert_array_equal(named["target_vel_defined"], ok)
-    assert {e["unit"] for e in manifest["policy"]["inputs"][0]["layout"]} >= {"m", "m/s", "s"}
+    # The default input is the paper's s: no staleness inputs, so no unit "s".
+    units = {e["unit"] for e in manifest["policy"]["inputs"][0]["layout"]}
+    assert units >= {"m", "m/s", "rad/s"} and "s" not in units
     assert manifest["rates_hz"] == {"control": 50.0, "camera": 2.0}
     assert manifest["method"] == "gt_rl" and manifest["versions"]["opset"] == 20
     assert set(manifest["versions"]) >= {"dyncatch", "jax", "onnx"}

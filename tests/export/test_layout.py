@@ -30,8 +30,16 @@ def test_a_name_without_a_unit_or_a_meaning_is_refused():
         entries([("speed_mps", 1)], {})
 
 
-# (name, offset, size) of every slot, worked out by hand from the fields' shapes.
+# (name, offset, size) of every slot, worked out by hand from the fields' shapes: the
+# default (the paper's s, IV-A) and with the staleness inputs (``staleness_observation``).
 OBS_SLOTS = [
+    ("robot_vel_body_mps", 0, 2),
+    ("robot_yaw_rate_rps", 2, 1),
+    ("target_obs_body_m", 3, 2),
+    ("scan_m", 5, 8),
+]
+VELOCITY_SLOTS = [("target_vel_body_mps", 13, 2), ("target_vel_defined", 15, 1)]
+STALE_OBS_SLOTS = [
     ("robot_vel_body_mps", 0, 2),
     ("robot_yaw_rate_rps", 2, 1),
     ("target_obs_body_m", 3, 2),
@@ -39,26 +47,38 @@ OBS_SLOTS = [
     ("visible", 6, 1),
     ("scan_m", 7, 8),
 ]
-VELOCITY_SLOTS = [("target_vel_body_mps", 15, 2), ("target_vel_defined", 17, 1)]
+STALE_VELOCITY_SLOTS = [("target_vel_body_mps", 15, 2), ("target_vel_defined", 17, 1)]
+STALE = WorldCfg().replace(observation=WorldCfg().observation.replace(staleness_inputs=True))
 
 
-@pytest.mark.parametrize(("method", "extra"), [("rl", []), ("gt_rl", VELOCITY_SLOTS)])
-def test_the_policy_layout_covers_the_input_vector(method, extra):
-    layout = policy_layout(METHODS[method].obs_fn(), WorldCfg())
-    assert [(e["name"], e["offset"], e["size"]) for e in layout] == OBS_SLOTS + extra
-    assert {e["unit"] for e in layout} >= {"m", "m/s", "rad/s", "s", "1 (0 or 1)"}
+@pytest.mark.parametrize(
+    ("method", "world", "slots"),
+    [
+        ("rl", WorldCfg(), OBS_SLOTS),
+        ("gt_rl", WorldCfg(), OBS_SLOTS + VELOCITY_SLOTS),
+        ("rl", STALE, STALE_OBS_SLOTS),
+        ("gt_rl", STALE, STALE_OBS_SLOTS + STALE_VELOCITY_SLOTS),
+    ],
+    ids=["rl", "gt_rl", "rl-staleness", "gt_rl-staleness"],
+)
+def test_the_policy_layout_covers_the_input_vector(method, world, slots):
+    layout = policy_layout(METHODS[method].obs_fn(), world)
+    assert [(e["name"], e["offset"], e["size"]) for e in layout] == slots
+    assert {e["unit"] for e in layout} >= {"m", "m/s", "rad/s"}
+    if world.observation.staleness_inputs:
+        assert {e["unit"] for e in layout} >= {"s", "1 (0 or 1)"}
 
 
 @pytest.mark.parametrize("method", ["rl", "gt_rl"])
 def test_the_policy_layout_follows_the_worlds_scan(method):
-    # Issue 29: a 32-ray world's policy input is 7 + 32 (+ 3) wide, not the 8-ray default's.
+    # Issue 29: a 32-ray world's policy input is 5 + 32 (+ 3) wide, not the 8-ray default's.
     world = WorldCfg().for_scene("woods_plane")
     env = JaxCatchEnv(world)
     state = env.reset(jax.random.key(0))
     obs_fn = METHODS[method].obs_fn()
     x = obs_fn(state, env.observe(state))
     layout = policy_layout(obs_fn, world)
-    assert x.shape == (7 + 32 + (3 if METHODS[method].velocity_input else 0),)
+    assert x.shape == (5 + 32 + (3 if METHODS[method].velocity_input else 0),)
     assert sum(e["size"] for e in layout) == x.shape[0]
     assert next(e for e in layout if e["name"] == "scan_m")["size"] == 32
 

@@ -29,17 +29,26 @@ NUM_STEPS = 20
 # the last sighting have no finite bound (sim/obs_bounds.py), and the action is the physical
 # command (vx in [-1, 2] m/s, ...), not a normalised one.
 EXPECTED_WARNINGS = ("infinity", "symmetric and normalized")
+
+
+def _with_staleness(world: WorldCfg) -> WorldCfg:
+    """``world`` with every ``Obs`` field in ``flat`` (reading ``staleness_observation``), so
+    a bounds test covers the staleness inputs too."""
+    return world.replace(observation=world.observation.replace(staleness_inputs=True))
+
+
+_LAYOUT = Obs.layout(WorldCfg().scene.scan_rays, staleness=True)
 _OFFSETS = dict(
     zip(
-        [name for name, _ in Obs.layout(WorldCfg().scene.scan_rays)],
-        np.cumsum([0] + [size for _, size in Obs.layout(WorldCfg().scene.scan_rays)])[:-1],
+        [name for name, _ in _LAYOUT],
+        np.cumsum([0] + [size for _, size in _LAYOUT])[:-1],
         strict=True,
     )
 )
 VEL = slice(int(_OFFSETS["robot_vel_body_mps"]), int(_OFFSETS["robot_vel_body_mps"]) + 3)
-"""robot_vel_body_mps (2) and robot_yaw_rate_rps (1) in ``Obs.flat``."""
+"""robot_vel_body_mps (2) and robot_yaw_rate_rps (1) in ``Obs.flat`` (either layout)."""
 TIME = int(_OFFSETS["time_since_seen_s"])
-"""time_since_seen_s in ``Obs.flat``."""
+"""time_since_seen_s in ``Obs.flat`` with the staleness inputs."""
 
 
 def fixed_actions(num_steps: int = NUM_STEPS) -> np.ndarray:
@@ -49,7 +58,7 @@ def fixed_actions(num_steps: int = NUM_STEPS) -> np.ndarray:
 
 
 def rollout(env: CatchEnv, seed: int, actions: np.ndarray):
-    """(obs (T+1, 15), rewards (T,), infos [T]) from reset(seed) under ``actions``."""
+    """(obs (T+1, D), rewards (T,), infos [T]) from reset(seed) under ``actions``."""
     obs, _ = env.reset(seed=seed)
     all_obs, rewards, infos = [obs], [], []
     for action in actions:
@@ -89,28 +98,32 @@ class TestGymnasiumApi:
         assert unexpected == []
 
     def test_spaces(self, env):
-        assert env.observation_space.shape == (15,)
+        assert env.observation_space.shape == (13,)  # the paper's s: no staleness inputs
         assert env.observation_space.dtype == np.float32
         np.testing.assert_array_equal(env.action_space.low, [-1.0, -1.0, -2.0])
         np.testing.assert_array_equal(env.action_space.high, [2.0, 1.0, 2.0])
 
     @pytest.mark.parametrize(("scene", "rays"), [("arena", 8), ("arena", 12), ("open_plane", 3)])
     def test_observation_space_follows_the_scan(self, scene, rays):
-        # 7 egocentric values (velocity 2, yaw rate 1, sighting 2, age 1, visible 1) + rays.
+        # 5 egocentric values (velocity 2, yaw rate 1, sighting 2) + rays; age 1 and
+        # visible 1 more under staleness_observation.
         world = WorldCfg().with_scene(scene)
         world = world.replace(scene=world.scene.replace(scan_rays=rays))
-        assert obs_dim(world) == 7 + rays
+        assert obs_dim(world) == 5 + rays and obs_dim(_with_staleness(world)) == 7 + rays
         env = CatchEnv(world=world)
-        assert env.observation_space.shape == (7 + rays,)
+        assert env.observation_space.shape == (5 + rays,)
         obs, _ = env.reset(seed=0)
-        assert obs.shape == (7 + rays,) and env.observation_space.contains(obs)
+        assert obs.shape == (5 + rays,) and env.observation_space.contains(obs)
         obs, *_ = env.step(np.zeros(3, np.float32))
-        assert obs.shape == (7 + rays,)
+        assert obs.shape == (5 + rays,)
+        stale = CatchEnv(world=_with_staleness(world))
+        assert stale.observation_space.shape == (7 + rays,)
+        assert stale.reset(seed=0)[0].shape == (7 + rays,)
 
     def test_step_returns_python_scalars(self, env):
         env.reset(seed=0)
         obs, reward, terminated, truncated, info = env.step(np.zeros(3, np.float32))
-        assert obs.dtype == np.float32 and obs.shape == (15,)
+        assert obs.dtype == np.float32 and obs.shape == (13,)
         assert type(reward) is float and type(terminated) is bool and type(truncated) is bool
         assert type(info["success"]) is bool and type(info["distance_m"]) is float
 
@@ -262,7 +275,7 @@ def random_world(w: WorldCfg, speed, arena_m, lag_s, gait_noise, cam_noise, late
 
 
 def random_command_obs(env: CatchEnv, seed: int, amplitude: float, hold: int, steps: int):
-    """Every observation (steps + resets, 17) of ``steps`` control steps of ``env`` under
+    """Every observation (steps + resets, D) of ``steps`` control steps of ``env`` under
     uniform random commands in ``amplitude`` x the command box, each held ``hold`` steps,
     resetting after each episode."""
     rng = np.random.default_rng(seed)
@@ -299,7 +312,7 @@ class TestObservationBounds:
     ):  # fmt: skip
         """Random worlds and commands (up to 5x the limits, held up to 3 s, so the base
         presses into walls), many episodes: no observation leaves the declared space."""
-        base = made_envs[behavior].world
+        base = _with_staleness(made_envs[behavior].world)
         world = random_world(base, speed, arena_m, lag_s, gait_noise, cam_noise, latency_s, dur_s)
         try:
             env = CatchEnv(behavior, world=world)

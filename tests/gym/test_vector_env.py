@@ -11,20 +11,40 @@ from gymnasium.vector import AutoresetMode
 
 from dyncatch.gym.catch_env import reset_flat, step_flat
 from dyncatch.gym.vector_env import CatchVectorEnv
-from dyncatch.sim.api import JaxCatchEnv
+from dyncatch.sim.api import JaxCatchEnv, obs_dim, obs_layout
 from dyncatch.sim.config import EpisodeCfg, WorldCfg
 
 NUM_ENVS = 4
 EPISODE_STEPS = 10
-SCAN = slice(7, 15)
-"""The 8-ray range scan in ``Obs.flat`` (after velocity 2, yaw rate 1, sighting 2, age, visible)."""
-# 0.2 s at 50 Hz = 10 steps. duration_s is a traced leaf of the config, so both fixtures
-# share one compilation of the batched step, and the single-env reference below (CatchEnv's
-# jitted reset/step, an independent path without vmap or auto-reset) compiles once too.
+# 0.2 s at 50 Hz = 10 steps. The short episodes' world also feeds the staleness inputs
+# (reading staleness_observation), so a final observation shows its episode's clock; the
+# standard observation (without them) is the other fixture's. The single-env reference
+# below is CatchEnv's jitted reset/step, an independent path without vmap or auto-reset.
 # The walled arena: its range scan tells starts (and episodes) apart in the observation.
 ARENA = WorldCfg().with_scene("arena")
-SHORT_WORLD = ARENA.replace(episode=EpisodeCfg(duration_s=EPISODE_STEPS / 50))
+SHORT_WORLD = ARENA.replace(
+    episode=EpisodeCfg(duration_s=EPISODE_STEPS / 50),
+    observation=ARENA.observation.replace(staleness_inputs=True),
+)
 ACTION = np.array([1.0, 0.3, -0.5], np.float32)
+D = obs_dim(ARENA)
+"""Width of ``Obs.flat`` in the arena."""
+
+
+def _slot(world: WorldCfg, name: str) -> slice:
+    """Where field ``name`` lies in ``Obs.flat`` of ``world``."""
+    start = 0
+    for field, size in obs_layout(world):
+        if field == name:
+            return slice(start, start + size)
+        start += size
+    raise KeyError(name)
+
+
+SCAN = _slot(ARENA, "scan_m")
+"""The range scan in ``Obs.flat``."""
+SHORT_SCAN = _slot(SHORT_WORLD, "scan_m")
+SHORT_TIME = _slot(SHORT_WORLD, "time_since_seen_s").start
 
 
 @pytest.fixture(scope="module")
@@ -39,25 +59,26 @@ def short_venv() -> CatchVectorEnv:
 
 def test_shapes_and_dtypes(venv):
     assert venv.metadata["autoreset_mode"] is AutoresetMode.SAME_STEP
-    assert venv.observation_space.shape == (NUM_ENVS, 15)
+    assert D == 13 and SCAN == slice(5, 13)  # velocity 2, yaw rate 1, sighting 2, 8 rays
+    assert venv.observation_space.shape == (NUM_ENVS, D)
     assert venv.action_space.shape == (NUM_ENVS, 3)
     obs, info = venv.reset(seed=0)
-    assert obs.shape == (NUM_ENVS, 15) and obs.dtype == np.float32 and info == {}
+    assert obs.shape == (NUM_ENVS, D) and obs.dtype == np.float32 and info == {}
     assert venv.observation_space.contains(obs)
     venv.action_space.seed(0)
     obs, reward, terminated, truncated, info = venv.step(venv.action_space.sample())
-    assert obs.shape == (NUM_ENVS, 15) and venv.observation_space.contains(obs)
+    assert obs.shape == (NUM_ENVS, D) and venv.observation_space.contains(obs)
     assert reward.shape == (NUM_ENVS,) and reward.dtype == np.float32
     assert terminated.shape == truncated.shape == (NUM_ENVS,)
     assert terminated.dtype == truncated.dtype == np.bool_
     for key in ("reward/pursuit", "success", "distance_m"):
         assert info[key].shape == (NUM_ENVS,)
     assert not info["_final_obs"].any()
-    np.testing.assert_array_equal(info["final_obs"], np.zeros((NUM_ENVS, 15)))
+    np.testing.assert_array_equal(info["final_obs"], np.zeros((NUM_ENVS, D)))
 
 
 def single_env_rollouts(seed: int, env: JaxCatchEnv, num_steps: int) -> np.ndarray:
-    """Obs (num_envs, num_steps + 1, 15) of env i started from split(PRNGKey(seed))[i]."""
+    """Obs (num_envs, num_steps + 1, D) of env i started from split(PRNGKey(seed))[i]."""
     rollouts = []
     for key in jax.random.split(jax.random.PRNGKey(seed), NUM_ENVS):
         state, obs = reset_flat(key, env)
@@ -73,7 +94,7 @@ def test_reset_matches_single_env_resets(venv):
     obs, _ = venv.reset(seed=5)
     np.testing.assert_allclose(obs, single_env_rollouts(5, venv.env, 0)[:, 0], atol=1e-6)
     # The environments are independent: no two start at the same place in the arena (the
-    # range scan, obs[7:15], reads position and heading).
+    # range scan, obs[SCAN], reads position and heading).
     gaps = np.linalg.norm(obs[:, None, SCAN] - obs[None, :, SCAN], axis=-1)
     assert gaps[~np.eye(NUM_ENVS, dtype=bool)].min() > 1e-3
     again, _ = venv.reset(seed=5)
@@ -117,10 +138,12 @@ class TestSameStepAutoreset:
         ref = single_env_rollouts(2, JaxCatchEnv(SHORT_WORLD), EPISODE_STEPS)[:, -1]
         np.testing.assert_allclose(info["final_obs"], ref, atol=1e-5)
         # Time since the last sighting (index 5): 0.2 s at the end, 0 in the new episode.
-        np.testing.assert_allclose(info["final_obs"][:, 5], 0.2, atol=1e-5)
-        np.testing.assert_array_equal(obs[:, 5], 0.0)
+        assert SHORT_TIME == 5 and SHORT_SCAN == slice(7, 15)
+        np.testing.assert_allclose(info["final_obs"][:, SHORT_TIME], 0.2, atol=1e-5)
+        np.testing.assert_array_equal(obs[:, SHORT_TIME], 0.0)
         # The new episode starts elsewhere in the arena: the range scan differs.
-        assert np.linalg.norm(obs[:, SCAN] - info["final_obs"][:, SCAN], axis=-1).min() > 1e-3
+        gap = obs[:, SHORT_SCAN] - info["final_obs"][:, SHORT_SCAN]
+        assert np.linalg.norm(gap, axis=-1).min() > 1e-3
 
     def test_record_episode_statistics(self, short_venv):
         env = gymnasium.wrappers.vector.RecordEpisodeStatistics(short_venv)

@@ -1,5 +1,6 @@
 """Resuming a reproduction: the recorded plan.json against the plan asked for now."""
 
+import dataclasses
 import json
 
 import pytest
@@ -91,3 +92,37 @@ def test_another_protocol_is_refused(tmp_path):
         check_plan(tmp_path, Plan(seeds=2, behaviors=("reactive", "random_reactive")))
     with pytest.raises(ValueError, match=r"transfer_behaviors"):
         check_plan(tmp_path, Plan(seeds=2, transfer_behaviors=()))
+
+
+def _staleness(plan: Plan, on: bool) -> Plan:
+    world = plan.world
+    return dataclasses.replace(
+        plan, world=world.replace(observation=world.observation.replace(staleness_inputs=on))
+    )
+
+
+def test_a_plan_recorded_with_the_staleness_inputs_is_refused_under_the_new_default(tmp_path):
+    """Issue 32 made the paper's observation the default: a folder recorded with the
+    staleness inputs resumes only with them, and a re-run without them names the field."""
+    assert Plan().world.observation.staleness_inputs is False
+    _record(tmp_path, _staleness(Plan(seeds=2), True))
+    with pytest.raises(ValueError, match=r"world\.observation\.staleness_inputs \(True -> False\)"):
+        check_plan(tmp_path, Plan(seeds=2))
+    check_plan(tmp_path, _staleness(Plan(seeds=2), True))
+
+
+@pytest.mark.parametrize("lost", ["observation", "staleness_inputs"])
+def test_a_plan_recorded_before_the_staleness_field_resumes_only_with_the_inputs(tmp_path, lost):
+    """Before ``observation.staleness_inputs`` existed every observation fed them: such a
+    plan is read as True (``LEGACY_WORLD``), not as today's default."""
+    recorded = _record(tmp_path, _staleness(Plan(seeds=2), True))
+    if lost == "observation":
+        del recorded["world"]["observation"]
+    else:
+        del recorded["world"]["observation"]["staleness_inputs"]
+    (tmp_path / "plan.json").write_text(json.dumps(recorded))
+    with pytest.raises(ValueError, match=r"world\.observation\.staleness_inputs \(None -> False\)"):
+        check_plan(tmp_path, Plan(seeds=2))
+    check_plan(tmp_path, _staleness(Plan(seeds=2), True))
+    recorded = json.loads((tmp_path / "plan.json").read_text())
+    assert recorded["world"]["observation"]["staleness_inputs"] is True

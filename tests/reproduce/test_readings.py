@@ -27,7 +27,10 @@ EXPECTED = {
     },
     "paper_budget": {"train_steps": (4_000_000, 20_000_000)},
     "gamma_held": {"world.target.gamma_hold_s": (0.0, 0.5)},
-    "paper_observation": {"world.observation.staleness_inputs": (True, False)},
+    # The paper's observation is the standard one since issue 32: the reading changes
+    # nothing, and the earlier standard is a reading of its own.
+    "paper_observation": {},
+    "staleness_observation": {"world.observation.staleness_inputs": (False, True)},
     "fov_half_angle": {"world.sensor.fov_rad": (math.radians(120.0), math.radians(240.0))},
     "beta_heading": {"world.target.beta_reading": ("bearing", "heading_difference")},
     "arm_on_sighting": {"world.arm.aim": ("true", "sighting")},
@@ -85,7 +88,7 @@ def test_the_new_fields_are_flags_of_their_own():
         "heading_difference",
         "--world.arm.aim",
         "sighting",
-        "--world.observation.no-staleness-inputs",
+        "--world.observation.staleness-inputs",
     ]
     w = parse(argv)[1].world
     assert (w.target.gamma_hold_s, w.target.beta_reading, w.arm.aim) == (
@@ -93,7 +96,23 @@ def test_the_new_fields_are_flags_of_their_own():
         "heading_difference",
         "sighting",
     )
-    assert w.observation.staleness_inputs is False
+    assert w.observation.staleness_inputs is True
+    argv = [
+        "reproduce",
+        "--setting",
+        "staleness_observation",
+        "--world.observation.no-staleness-inputs",
+    ]
+    assert parse(argv)[1].world.observation.staleness_inputs is False
+
+
+def test_the_standard_observation_is_the_papers():
+    """Issue 32: s_obj = [p_obj] (IV-A), no age of the sighting; the earlier standard stays
+    a reading."""
+    assert PROFILES["full"].world.observation.staleness_inputs is False
+    plan = parse(["reproduce", "--setting", "staleness_observation"])[1]
+    assert plan.world.observation.staleness_inputs is True
+    assert plan.setting == ("staleness_observation",)
 
 
 def test_paper_literal_combines_the_literal_readings_and_flags_still_override():

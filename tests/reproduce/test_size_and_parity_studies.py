@@ -214,3 +214,46 @@ def test_the_speed_profile_reads_the_folder_with_most_seeds_and_averages_over_th
     lo, hi = by_speed[0.8]["ci95"]
     assert hi - 0.2 == pytest.approx(4.302653 * 0.2 / 3**0.5, rel=1e-5)
     assert by_speed[0.8]["per_seed"] == [0.2, 0.4, 0.0]
+
+
+# plan.json files the parity study recorded before issue 32 made the paper's observation the
+# default (copied from its folders: the 10-seed primary pass's default and
+# paper_observation, and the full pass's gamma_held).
+RECORDED = {
+    "primary_s10/default": (),
+    "primary_s10/paper_observation": ("paper_observation",),
+    "gamma_held": ("gamma_held",),
+}
+_PLANS = Path(__file__).resolve().parent / "data" / "parity_plans"
+
+
+@pytest.mark.parametrize("where", sorted(RECORDED))
+def test_the_study_resumes_its_recorded_plans_under_the_new_default(tmp_path, where):
+    """Each command pins the study's recorded observation (the staleness inputs, except under
+    paper_observation) by a flag, so its folder and its plan.json stay exactly as recorded."""
+    import json
+
+    from dyncatch.reproduce.layout import check_plan
+
+    setting = RECORDED[where]
+    recorded = json.loads((_PLANS / f"{where.replace('/', '_')}.json").read_text())
+    stale = "paper_observation" not in setting
+    assert recorded["world"]["observation"]["staleness_inputs"] is stale
+    args = parity_study.parser().parse_args(
+        ["--out", str(tmp_path), "--hidden-sizes", "128", "128", "64"]
+    )
+    seeds = recorded["seeds"] if where.startswith("primary_s") else None
+    argv = parity_study.study_argv(args, setting, primary_seeds=seeds)
+    folder = Path(argv[argv.index("--out") + 1])
+    assert folder == tmp_path / where  # the folder's name is the setting's, as recorded
+    folder.mkdir(parents=True)
+    (folder / "plan.json").write_text(json.dumps(recorded))
+    plan = parse(argv)[1]
+    assert plan.to_json() == recorded
+    check_plan(folder, plan)
+    assert json.loads((folder / "plan.json").read_text()) == recorded
+    # Without the pin the new default is refused, naming the field.
+    if stale:
+        bare = [a for a in argv if a != parity_study.STALENESS_FLAG]
+        with pytest.raises(ValueError, match=r"world\.observation\.staleness_inputs"):
+            check_plan(folder, parse(bare)[1])

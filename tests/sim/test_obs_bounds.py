@@ -16,14 +16,20 @@ VEL = slice(0, 3)
 
 
 def test_default_world_bounds_by_hand():
-    # Obs.flat: body velocity (2), yaw rate, target in the body frame (2), time since seen,
-    # visible, range scan (8 rays, capped at 10 m).
+    # Obs.flat: body velocity (2), yaw rate, target in the body frame (2), range scan (8
+    # rays, capped at 10 m); with the staleness inputs (reading staleness_observation) time
+    # since seen and visible come after the target.
     space = observation_space(JaxCatchEnv(WorldCfg()))
-    low = [-1, -1, -2, -INF, -INF, 0, 0] + [0] * 8
-    high = [2, 1, 2, INF, INF, INF, 1] + [10] * 8
+    low = [-1, -1, -2, -INF, -INF] + [0] * 8
+    high = [2, 1, 2, INF, INF] + [10] * 8
     np.testing.assert_array_equal(space.low, low)
     np.testing.assert_array_equal(space.high, high)
     assert space.dtype == np.float32
+    w = WorldCfg()
+    stale = w.replace(observation=w.observation.replace(staleness_inputs=True))
+    space = observation_space(JaxCatchEnv(stale))
+    np.testing.assert_array_equal(space.low, [-1, -1, -2, -INF, -INF, 0, 0] + [0] * 8)
+    np.testing.assert_array_equal(space.high, [2, 1, 2, INF, INF, INF, 1] + [10] * 8)
 
 
 def test_bounds_follow_the_world():
@@ -34,7 +40,7 @@ def test_bounds_follow_the_world():
     )
     low, high = obs_bounds(world)
     np.testing.assert_array_equal(high.scan_m, [20.0] * 4)
-    assert observation_space(JaxCatchEnv(world)).shape == (11,)
+    assert observation_space(JaxCatchEnv(world)).shape == (9,)  # 5 + 4 rays
     np.testing.assert_array_equal(high.robot_vel_body_mps, [3.0, 1.0])
     np.testing.assert_array_equal([low.robot_yaw_rate_rps, high.robot_yaw_rate_rps], [-1.5, 1.5])
     # A 0.005 s physics sub-step against a 0.004 s lag overshoots: no velocity bound.

@@ -1,6 +1,8 @@
 """The readings of issue 32 (docs/fidelity.md): each off by default, with today's numbers,
 and each changing what it says: gamma held, the paper's observation, the FoV as a
-half-angle, beta as the heading difference, the arm aiming at the sighting."""
+half-angle, beta as the heading difference, the arm aiming at the sighting. The paper's
+observation became the default (issue 32, item 4): the observation from before the readings
+is ``staleness_observation``."""
 
 import dataclasses
 import math
@@ -60,7 +62,9 @@ BEFORE = {
 
 @pytest.mark.parametrize("behavior", sorted(BEFORE))
 def test_the_default_world_reproduces_the_numbers_from_before_the_readings(behavior):
-    obs, reward, success, target_xy = _pursuit_rollout(CFG.with_behavior(behavior).with_speed(1.0))
+    # The sums include Obs.flat, which carried the staleness inputs before the readings.
+    before = _read("staleness_observation").with_behavior(behavior).with_speed(1.0)
+    obs, reward, success, target_xy = _pursuit_rollout(before)
     obs_sum, reward_sum, catches, last_xy = BEFORE[behavior]
     assert float(np.asarray(obs, np.float64).sum()) == pytest.approx(obs_sum, rel=1e-7)
     assert float(np.asarray(reward, np.float64).sum()) == pytest.approx(reward_sum, rel=1e-7)
@@ -107,11 +111,12 @@ def test_gamma_held_is_constant_over_a_camera_period(behavior):
 
 
 def test_the_paper_observation_drops_the_staleness_inputs_for_every_method():
-    paper = _read("paper_observation")
-    assert obs_dim(CFG) == 15 and obs_dim(paper) == 13
+    paper, stale = _read("paper_observation"), _read("staleness_observation")
+    assert paper == CFG  # the standard observation is the paper's (issue 32)
+    assert obs_dim(stale) == 15 and obs_dim(paper) == 13
     s = jax.jit(env.reset)(jax.random.key(0), CFG)
     s = jax.jit(lambda s: env.step(s, jnp.array([1.0, 0.0, 0.5]), CFG)[0])(s)
-    full, short = env.observe(s, CFG), env.observe(s, paper)
+    full, short = env.observe(s, stale), env.observe(s, paper)
     keep = [i for i in range(15) if i not in (5, 6)]  # time_since_seen_s, visible
     np.testing.assert_array_equal(short.flat, np.asarray(full.flat)[keep])
     assert float(short.time_since_seen_s) == float(full.time_since_seen_s)  # still in Obs
@@ -123,7 +128,7 @@ def test_the_paper_observation_drops_the_staleness_inputs_for_every_method():
         names = [n for n, _ in layout]
         assert "time_since_seen_s" not in names and "visible" not in names
         assert [e["name"] for e in policy_layout(fn, paper)] == names
-        assert sum(size for _, size in layout) == sum(size for _, size in fn.layout(CFG)) - 2
+        assert sum(size for _, size in layout) == sum(size for _, size in fn.layout(stale)) - 2
         assert fn(s, short).shape == (sum(size for _, size in layout),)
 
 

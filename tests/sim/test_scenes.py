@@ -265,10 +265,10 @@ def test_scene_defaults_and_the_observation_size():
     assert (w.episode.duration_s, w.scene.scan_rays) == (40.0, 32)
     assert WorldCfg().with_scene("room_8").scene.scan_rays == 8  # --scene alone keeps the scan
     assert WorldCfg().for_scene("open_plane") == WorldCfg()
-    assert obs_dim(w) == 7 + 32 == sum(n for _, n in Obs.layout(32))
+    assert obs_dim(w) == 5 + 32 == sum(n for _, n in Obs.layout(32, staleness=False))
     e = JaxCatchEnv(w)
-    assert e.observation_spec.shape == (39,)
-    assert env.observe(jax.jit(env.reset)(jax.random.key(0), w), w).flat.shape == (39,)
+    assert e.observation_spec.shape == (37,)
+    assert env.observe(jax.jit(env.reset)(jax.random.key(0), w), w).flat.shape == (37,)
 
 
 @pytest.mark.parametrize(

@@ -25,6 +25,7 @@ from pathlib import Path
 
 from dyncatch.reproduce.plan import PROFILES, Plan
 from dyncatch.rl.methods import get_method
+from dyncatch.sim.config import LEGACY_WORLD
 from dyncatch.utils.config_io import config_diff, flatten
 from dyncatch.utils.files import read_json, write_json
 
@@ -67,6 +68,7 @@ LEGACY_VALUES: dict[str, tuple] = {
     "transfer_behaviors": ([],),
     "table_ii": (True,),
     "power": (False,),
+    **{f"world.{k}": (v,) for k, v in LEGACY_WORLD.items()},
 }
 """Plan fields added after plans were recorded whose default is not (only) what the code did
 before them, mapped to the values a recorded plan without them is compatible with: plans
@@ -74,9 +76,12 @@ recorded before ``fig9_speed_mps`` drew Fig. 9's speed per episode (None); befor
 ``transfer_behaviors`` there was no transfer table (adding it only adds its files); plans
 recorded before ``vmap_seeds`` trained their seeds one by one; plans recorded before
 ``fig9`` ran no Fig. 9 (off), and turning the stage on only adds its files; plans recorded
-before ``ppo.obs_min_std`` normalised without a floor. Before ``ground_truth`` was recorded
-gt_rl trained with ``always`` and then, for a while, ``when_predicted``: none is compatible,
-so such a folder's gt_rl runs are never reused."""
+before ``ppo.obs_min_std`` normalised without a floor; the world's ``LEGACY_WORLD`` fields
+(plans recorded before ``world.observation.staleness_inputs`` fed the staleness inputs, so
+they resume only with ``--world.observation.staleness-inputs``; a ``--setting`` is recorded
+too, so adding ``staleness_observation`` to it would not match). Before ``ground_truth``
+was recorded gt_rl trained with ``always`` and then, for a while, ``when_predicted``: none
+is compatible, so such a folder's gt_rl runs are never reused."""
 
 
 def _real_diff(have: dict, want: dict) -> dict:

@@ -150,10 +150,20 @@ READINGS: dict[str, Reading] = {
         Reading(
             "paper_observation",
             "observation.staleness_inputs = False: every method's input drops "
-            "time_since_seen_s and visible",
+            "time_since_seen_s and visible (the standard setting since issue 32: applying it "
+            "to the defaults changes nothing)",
             "s = [s_rob, s_obj, v_hat_obj, s_env] with s_rob = [p_rob, p_rob_dot, R_rob, "
             "R_rob_dot] and s_obj = [p_obj] (IV-A): no age of the sighting, no seen flag",
             _world(observation={"staleness_inputs": False}),
+        ),
+        Reading(
+            "staleness_observation",
+            "observation.staleness_inputs = True: every method's input also carries "
+            "time_since_seen_s and visible (the standard setting before issue 32)",
+            "ours, the earlier standard: the held sighting's age and the visible flag as "
+            "inputs; the paper's s (IV-A) has neither, but the robot knows when its camera "
+            "last saw the target",
+            _world(observation={"staleness_inputs": True}),
         ),
         Reading(
             "fov_half_angle",

@@ -28,10 +28,10 @@ from dyncatch.rl.recurrent import MemoryPolicy
 from dyncatch.rl.recurrent_train import make_recurrent_train
 from dyncatch.rl.train import make_train, to_command
 from dyncatch.sim.api import Environment, JaxCatchEnv
-from dyncatch.sim.config import WorldCfg
+from dyncatch.sim.config import LEGACY_WORLD, WorldCfg
 from dyncatch.sim.state import EnvState, Obs
 from dyncatch.sim.validate import ConfigError, validate_world
-from dyncatch.utils.config_io import ConfigDictError, from_dict
+from dyncatch.utils.config_io import ConfigDictError, fill_missing, from_dict
 from dyncatch.utils.tree_io import TreeFileError, load_fields, read_header
 
 CHECKPOINT = "checkpoint.safetensors"
@@ -118,10 +118,13 @@ def header_field(path: Path, header: dict, name: str, kind: type = str) -> Any:
 
 def header_world(path: Path, header: dict) -> WorldCfg:
     """The training world of a checkpoint's header: typed and checked, or TreeFileError
-    naming the file and the field."""
+    naming the file and the field. A field the header lacks takes what the code did before
+    it was recorded where that is not today's default (``LEGACY_WORLD``: a run trained
+    before ``observation.staleness_inputs`` existed fed the staleness inputs)."""
 
+    recorded = fill_missing(header_field(path, header, "world", dict), LEGACY_WORLD)
     try:
-        world = from_dict(WorldCfg, header_field(path, header, "world", dict), "world")
+        world = from_dict(WorldCfg, recorded, "world")
         return validate_world(world)
     except (ConfigDictError, ConfigError) as err:
         raise TreeFileError(f"{path}: header {err}; retrain the run or restore it") from None

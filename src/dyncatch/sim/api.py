@@ -95,8 +95,9 @@ class JaxCatchEnv:
     @property
     def observation_spec(self) -> Spec:
         """``Obs.flat``, (obs_dim(world),), within the bounds the simulator guarantees
-        (``sim.obs_bounds``: velocities within the command limits, the visible flag, time
-        since seen >= 0, the scan within [0, its range]; infinite where none is proven)."""
+        (``sim.obs_bounds``: velocities within the command limits, the scan within [0, its
+        range], and with the staleness inputs the visible flag and time since seen >= 0;
+        infinite where none is proven)."""
         low, high = obs_bounds(self.world)
         n = obs_dim(self.world)
         return Spec((n,), low.flat, high.flat)

@@ -155,11 +155,21 @@ class SensorCfg:
 class ObservationCfg:
     """What of the sensor's state the policy's observation (``sim.state.Obs``) carries."""
 
-    staleness_inputs: bool = static(True)
+    staleness_inputs: bool = static(False)
     """Whether ``Obs.flat`` (every method's policy input) carries ``time_since_seen_s`` and
-    ``visible``, the age of the held sighting and whether the last frame saw the target
-    (the default); False drops them, the paper's state s (IV-A) has no age of the sighting
-    (reading ``paper_observation``). Scripted policies still read them from ``Obs``."""
+    ``visible``, the age of the held sighting and whether the last frame saw the target.
+    False (the default) is the paper's state s = [s_rob, s_obj, v_hat_obj, s_env] with
+    s_obj = [p_obj] (IV-A): no age of the sighting, no seen flag. True, the earlier default
+    (issue 32), is the reading ``staleness_observation``; a checkpoint or plan.json recorded
+    before this field existed fed them and is read as True (``LEGACY_WORLD``). Scripted
+    policies read them from ``Obs`` either way."""
+
+
+LEGACY_WORLD: dict[str, object] = {"observation.staleness_inputs": True}
+"""World fields (dotted, under ``WorldCfg``) whose default is not what the code did before
+they were recorded, mapped to what it did: a record of a world (a checkpoint header, a
+plan.json) that lacks one is read with this value, never with today's default. Every
+observation carried the staleness inputs before ``observation.staleness_inputs`` existed."""
 
 
 VisibilityReading = Literal["per_second", "per_step"]

@@ -137,16 +137,17 @@ class Obs:
     """s_env (eq. 3): range scan, the distance along each ray from the base centre to the
     nearest wall or obstacle, capped at ``scene.scan_range_m`` (the cap where nothing is hit),
     (scene.scan_rays,)."""
-    staleness: bool = struct.field(pytree_node=False, default=True, kw_only=True)
+    staleness: bool = struct.field(pytree_node=False, kw_only=True)
     """Whether ``flat`` carries the staleness inputs (``time_since_seen_s``, ``visible``):
-    the world's ``observation.staleness_inputs``. The fields are there either way."""
+    the world's ``observation.staleness_inputs`` (no default here: the world's is the one).
+    The fields are there either way."""
 
     @staticmethod
     def _in_flat(f: dataclasses.Field, staleness: bool) -> bool:
         return "shape" in f.metadata and (staleness or not f.metadata["staleness"])
 
     @classmethod
-    def layout(cls, scan_rays: int, staleness: bool = True) -> tuple[tuple[str, int], ...]:
+    def layout(cls, scan_rays: int, staleness: bool) -> tuple[tuple[str, int], ...]:
         """(field name, number of slots in ``flat``) of every field in ``flat``, in its
         order, for a scan of ``scan_rays`` rays (the world's ``scene.scan_rays``) and with or
         without the staleness inputs (the world's ``observation.staleness_inputs``)."""

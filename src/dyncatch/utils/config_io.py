@@ -9,6 +9,7 @@ for a string, a list of such for a tuple); a field whose default is None takes a
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 from typing import Any
 
@@ -86,6 +87,23 @@ def flatten(d: Any, prefix: str = "") -> dict[str, Any]:
     out: dict[str, Any] = {}
     for k, v in d.items():
         out.update(flatten(v, f"{prefix}.{k}" if prefix else str(k)))
+    return out
+
+
+def fill_missing(d: dict, values: dict[str, Any]) -> dict:
+    """``d`` (nested dicts) with each dotted key of ``values`` that it lacks set to its value
+    (``fill_missing({"a": {}}, {"a.b": 1})`` -> ``{"a": {"b": 1}}``); ``d`` is not changed.
+    Keys ``d`` has, and non-dict values on the way, are left as they are."""
+    out = copy.deepcopy(d)
+    for key, value in values.items():
+        *groups, name = key.split(".")
+        node = out
+        for g in groups:
+            node = node.setdefault(g, {})
+            if not isinstance(node, dict):
+                break
+        else:
+            node.setdefault(name, value)
     return out
 
 
