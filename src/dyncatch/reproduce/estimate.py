@@ -28,7 +28,7 @@ from dyncatch.reproduce.fig9 import rows_of
 from dyncatch.reproduce.layout import fig6_evaluated_columns
 from dyncatch.reproduce.plan import Plan
 from dyncatch.rl.methods import predictor_kinds
-from dyncatch.sim.api import OBS_DIM
+from dyncatch.sim.api import obs_dim
 
 EST_S_PER_SAMPLE = 4.8e-6
 """Seconds per training sample outside the networks (simulator, GAE, normaliser): the
@@ -89,8 +89,9 @@ def table_ii_s(plan: Plan) -> float:
 
 
 def samples_per_s(plan: Plan) -> float:
-    """Training samples per second at the plan's network size (``rl``'s input)."""
-    flops = ppo_flops_per_sample(OBS_DIM, plan.ppo)["total"]
+    """Training samples per second at the plan's network size (``rl``'s input in the plan's
+    world)."""
+    flops = ppo_flops_per_sample(obs_dim(plan.world), plan.ppo)["total"]
     return 1.0 / ((EST_S_PER_SAMPLE + EST_S_PER_PPO_FLOP * flops) * EST_TRAIN_OVERHEAD)
 
 
