@@ -19,9 +19,11 @@ import argparse
 import json
 from pathlib import Path
 
+from parity_study import setting_folders
 from study_io import write_summary
 
 from dyncatch.evaluation.intervals import mean_ci
+from dyncatch.utils.files import read_json, write_json
 
 METHODS = ("rl", "sp_rl")
 BEHAVIOR = "reactive"
@@ -44,11 +46,10 @@ def parser() -> argparse.ArgumentParser:
 
 def setting_folder(study: Path, setting: str) -> Path:
     """The folder of ``setting`` holding the most seeds (its ``plan.json``'s ``seeds``)."""
-    found = [p for p in [study / setting, *study.glob(f"primary_s*/{setting}")]
-             if (p / "plan.json").exists()]  # fmt: skip
+    found = [p for p in setting_folders(study, setting) if (p / "plan.json").exists()]
     if not found:
         raise FileNotFoundError(f"no run of setting {setting!r} under {study}: run the study")
-    return max(found, key=lambda p: json.loads((p / "plan.json").read_text())["seeds"])
+    return max(found, key=lambda p: read_json(p / "plan.json")["seeds"])
 
 
 def runs(folder: Path, method: str) -> list[Path]:
@@ -76,13 +77,9 @@ def evaluate(args) -> None:
                 out = args.out / setting / method / f"{run.name}.json"
                 if out.exists():
                     continue
-                command, cmd = parse(eval_argv(args, folder, run, method))
-                result = command.run(cmd)
-                out.parent.mkdir(parents=True, exist_ok=True)
-                tmp = out.with_suffix(".tmp")
-                tmp.write_text(json.dumps({"argv": eval_argv(args, folder, run, method),
-                                           **result}))  # fmt: skip
-                tmp.replace(out)
+                argv = eval_argv(args, folder, run, method)
+                command, cmd = parse(argv)
+                write_json(out, {"argv": argv, **command.run(cmd)})
 
 
 def summarize(args) -> dict:
