@@ -8,7 +8,12 @@ import json
 import pytest
 
 from dyncatch.reproduce.aggregate import average_column, summarize_cells
-from dyncatch.reproduce.endpoints import PRIMARY_ENDPOINTS, Endpoint, parse_endpoint
+from dyncatch.reproduce.endpoints import (
+    PRIMARY_ENDPOINTS,
+    Endpoint,
+    against_paper,
+    parse_endpoint,
+)
 from dyncatch.reproduce.layout import check_plan
 from dyncatch.reproduce.plan import Plan
 from dyncatch.reproduce.report import primary_markdown
@@ -86,6 +91,9 @@ class TestPrimaryTable:
         # 0.92 - 0.70 = 0.22, sd 0.02 and 0.2 over 3 seeds: the CI spans 0
         assert order["difference"] == pytest.approx(0.22)
         assert order["resolution"] == "unresolved"
+        # the CI spans 0 and excludes the paper's +0.908
+        assert order["against_paper"] == "unresolved, paper's value excluded"
+        assert room["against_paper"] is None
         text = primary_markdown(primary)
         assert (
             "| sp_rl_vs_rl_reactive (sp_rl > rl, reactive, 1.8 m/s) | success rate | +0.908 |"
@@ -93,6 +101,27 @@ class TestPrimaryTable:
         )
         assert f"+-{order['half_width']:.3f} | {order['seeds_for_80pct_power_at_margin']} |" in text
         assert "Declared but not measured by this plan: `sp_rl_vs_rl_random_reactive`" in text
+        assert "| unresolved | unresolved, paper's value excluded |" in text
+
+
+class TestAgainstThePaper:
+    @pytest.mark.parametrize(
+        "ci, paper, verdict",
+        [
+            ((0.80, 0.95), 0.908, "reproduced"),
+            ((0.10, 0.30), 0.908, "direction reproduced, smaller"),
+            ((0.10, 0.30), 0.05, "direction reproduced, larger"),
+            ((-0.30, -0.10), 0.908, "contradicted"),
+            ((0.10, 0.30), 0.0, "contradicted"),
+            ((-0.08, 0.09), 0.908, "contradicted"),  # equivalent within 0.10
+            ((-0.08, 0.09), 0.05, "reproduced"),
+            ((-0.20, 0.95), 0.908, "unresolved"),
+            ((-0.20, 0.40), 0.908, "unresolved, paper's value excluded"),
+            ((-0.20, 0.40), None, None),
+        ],
+    )
+    def test_each_outcome_by_hand(self, ci, paper, verdict):
+        assert against_paper(ci, paper, 0.10) == verdict
 
     def test_a_plan_without_a_measured_endpoint_says_so(self):
         plan = Plan(methods=METHODS, speeds_mps=(0.8,), behaviors=("reactive",))

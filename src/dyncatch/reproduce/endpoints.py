@@ -141,3 +141,32 @@ def validate_endpoints(endpoints, behaviors, methods) -> None:
             raise ValueError(f"{where}: compares {e.claim[0]!r} with itself")
         if e.speed_mps < 0 or e.margin <= 0:
             raise ValueError(f"{where}: the speed must be >= 0 and the margin > 0")
+
+
+def against_paper(ci95: tuple[float, float], paper: float | None, margin: float) -> str | None:
+    """An endpoint's verdict on the paper's claim, from our 95 % CI of the difference and the
+    paper's value (None where the paper gives no number: None).
+
+    - ``reproduced``: the CI excludes 0 on the paper's side and holds the paper's value;
+    - ``direction reproduced, smaller`` (or ``larger``): the CI excludes 0 on the paper's
+      side but not its value;
+    - ``contradicted``: the CI excludes 0 on the other side (or the paper's value is 0), or
+      lies inside +-margin while the paper's value does not (equivalence at the margin);
+    - ``unresolved, paper's value excluded``: the CI spans 0 but not the paper's value;
+    - ``unresolved``: the CI holds both 0 and the paper's value.
+    """
+    if paper is None:
+        return None
+    lo, hi = ci95
+    holds_paper = lo <= paper <= hi
+    if lo > 0 or hi < 0:
+        ours = 1.0 if lo > 0 else -1.0
+        if ours * paper <= 0:
+            return "contradicted"
+        if holds_paper:
+            return "reproduced"
+        smaller = abs(paper) > max(abs(lo), abs(hi))
+        return "direction reproduced, " + ("smaller" if smaller else "larger")
+    if -margin < lo and hi < margin:
+        return "reproduced" if abs(paper) < margin else "contradicted"
+    return "unresolved" if holds_paper else "unresolved, paper's value excluded"

@@ -268,13 +268,14 @@ def primary_markdown(primary: dict) -> str:
     """The plan's primary endpoints (``summary.primary_rows``) as a table: the paper's
     difference where Table I gives one, ours with its 95 % CI, the smallest difference the
     run resolves (the CI's half-width), the seeds per method for 80 % power at the margin,
-    and the resolution; then the declared endpoints the plan does not measure."""
+    the resolution and its verdict on the paper's claim (``endpoints.against_paper``);
+    then the declared endpoints the plan does not measure."""
     lines = []
     if primary["measured"]:
         lines += [
             "| endpoint | measure | paper | ours [95% CI] | smallest resolvable | "
-            "seeds for 80 % power at the margin | verdict |",
-            "|---|---|---:|---|---:|---:|---|",
+            "seeds for 80 % power at the margin | verdict | against the paper |",
+            "|---|---|---:|---|---:|---:|---|---|",
         ]
     for c in primary["measured"]:
         lo, hi = c["ci95"]
@@ -289,7 +290,8 @@ def primary_markdown(primary: dict) -> str:
             f"| {c['endpoint']} ({c['claim']}, {c['behavior']}, {c['speed_mps']:g} m/s) | "
             f"{MEASURE_LABEL[c['metric']]} | {paper} | {c['difference']:+.3f} "
             f"[{lo:+.3f}, {hi:+.3f}] | +-{c['smallest_resolvable_difference']:.3f} | "
-            f"{'-' if seeds is None else seeds} | {verdict} |"
+            f"{'-' if seeds is None else seeds} | {verdict} | "
+            f"{c.get('against_paper') or '-'} |"
         )
     if not primary["measured"]:
         lines.append(

@@ -40,7 +40,12 @@ def render_report(r: dict, plan: Plan) -> str:
         "2+ seeds, else normal on pooled episodes), the smallest difference this run resolves "
         "(the CI's half-width) and the seeds per method 80 % power needs at the margin. "
         "Resolved: the CI excludes 0; equivalent: it lies inside +-margin; else unresolved. "
-        "The paper's value is Table I's difference, where it gives both methods.",
+        "The paper's value is Table I's difference, where it gives both methods. Against "
+        "the paper: reproduced (the CI excludes 0 on the paper's side and holds its value), "
+        "direction reproduced but smaller or larger (it excludes 0, not the paper's value), "
+        "contradicted (it excludes 0 on the other side, or lies inside +-margin while the "
+        "paper's value does not), unresolved (it spans 0; 'paper's value excluded' where it "
+        "spans 0 but not the paper's value).",
         "",
         report.primary_markdown(r["primary_endpoints"]),
         "",

@@ -10,6 +10,7 @@ import numpy as np
 
 from dyncatch.bench.machine import machine_info
 from dyncatch.reproduce import aggregate, fig9, fig9_report, report
+from dyncatch.reproduce.endpoints import against_paper
 from dyncatch.reproduce.paper import paper_difference
 from dyncatch.reproduce.plan import Plan
 from dyncatch.reproduce.presentation import paper_claims
@@ -83,7 +84,8 @@ def primary_rows(plan: Plan, checks: list[dict]) -> dict:
         paper = None
         if c["kind"] == "ordering":
             paper = paper_difference(c["behavior"], winner, loser, c["speed_mps"], c["metric"])
-        rows.append({**c, "paper_difference": paper})
+        verdict = against_paper(tuple(c["ci95"]), paper, c["margin"])
+        rows.append({**c, "paper_difference": paper, "against_paper": verdict})
     measured = {r["endpoint"] for r in rows}
     declared = [e.name for e in plan.primary_endpoints]
     return {
