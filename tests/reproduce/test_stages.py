@@ -2,6 +2,7 @@
 comes from the list, and the printed estimate is the sum of the stages' estimates."""
 
 import dataclasses
+import time
 
 import pytest
 
@@ -11,6 +12,7 @@ from dyncatch.reproduce.presentation import PRESENTATION, paper_claims, reproduc
 from dyncatch.reproduce.stages import STAGES, estimate_s, stages_of
 from dyncatch.rl.config import PPOCfg
 from dyncatch.rl.methods import METHODS
+from dyncatch.utils.files import read_json, write_json
 
 
 def test_every_input_is_an_earlier_stages_output():
@@ -168,6 +170,27 @@ def test_the_log_numbers_the_stages_from_the_list(tmp_path, monkeypatch):
     n = len(fake)
     assert stage_lines == [f"stage {i}/{n}: {s.title} (done)" for i, s in enumerate(fake, 1)]
     assert got == {s.name: s.name for s in fake}
+
+
+def test_the_wall_clock_adds_a_killed_invocations_time(tmp_path):
+    """wall.json holds the earlier invocations' total plus this one's, and is rewritten
+    while the invocation runs, so one that is killed (never exits) still counts."""
+    path = tmp_path / "wall.json"
+    write_json(path, {"this_invocation_s": 90.0, "total_s": 100.0})
+    clock = pipeline.WallClock(path, every_s=0.01).__enter__()  # never exited: "killed"
+    first = read_json(path)
+    assert first["total_s"] == pytest.approx(100.0 + first["this_invocation_s"])
+    deadline = time.monotonic() + 10.0
+    while read_json(path)["this_invocation_s"] <= first["this_invocation_s"]:
+        assert time.monotonic() < deadline, "the clock's thread never rewrote wall.json"
+        time.sleep(0.01)
+    clock._stop.set()
+    clock._thread.join()
+    killed = read_json(path)["total_s"]
+    with pipeline.WallClock(path) as again:
+        assert again.previous_s == killed
+    final = read_json(path)
+    assert final["total_s"] == pytest.approx(killed + final["this_invocation_s"])
 
 
 def test_every_method_is_presented_and_the_claims_are_the_papers():
