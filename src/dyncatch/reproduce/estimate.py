@@ -16,7 +16,14 @@ names the measurement it comes from, all on the idle 2-core Xeon:
   a Fig. 9 cell, evaluation then compiling once per policy and speed): a group of 3 seeds x
   4 M steps 551-582 s, Table I 12.2 min, Fig. 9 37.3 min, videos 0.5 min;
 * ``dyncatch bench ppo`` for the training rate, and the 13 s / 18 s per 1000 Fig. 9
-  episodes of ``Plan.fig9_episodes``.
+  episodes of ``Plan.fig9_episodes``;
+* the power run of 2026-12-03 (``benchmarks/results/power``, commit 0e2ccfb: 30 seeds x
+  4 M steps a group at 128-128-64, 13 inputs), its two uncontended groups on
+  random_reactive: ``rl`` 2,334 s (1,988 s of it training iterations, the ``time_s`` of
+  metrics.csv, which leaves out the periodic evaluations), ``sp_rl`` 2,792 s (2,208 s).
+  The estimate printed before that run, 131 min, was 25 % under its 2 h 55 min: it counted
+  the periodic evaluations as a fixed 20 % of the iterations and every method at ``rl``'s
+  rate.
 """
 
 from __future__ import annotations
@@ -27,7 +34,8 @@ from dyncatch.predictor.table import all_kinds
 from dyncatch.reproduce.fig9 import rows_of
 from dyncatch.reproduce.layout import fig6_evaluated_columns
 from dyncatch.reproduce.plan import Plan
-from dyncatch.rl.methods import predictor_kinds
+from dyncatch.rl.methods import METHODS, predictor_kinds, trained_methods
+from dyncatch.rl.runner import TrainRunCfg, eval_due
 from dyncatch.sim.api import obs_dim
 
 EST_S_PER_SAMPLE = 4.8e-6
@@ -37,14 +45,26 @@ EST_S_PER_PPO_FLOP = 5.9e-12
 """Seconds per PPO FLOP (``bench.ppo_bench.ppo_flops_per_sample``'s count). With the line
 above it fits ``dyncatch bench ppo`` on the idle 2-core Xeon: 27,000 samples/s at
 256-256-128 (5.47 M FLOPs per sample) and 76,322 at 128-128-64 (1.41 M)."""
-EST_TRAIN_OVERHEAD = 1.2
-"""A training run's time over its PPO iterations' (periodic evaluations, logs,
-checkpoints): the full run's 551-582 s per 3-seed group of 4 M steps at 256-256-128, about
-22,000 samples/s against the benchmark's 27,000."""
-EST_TRAIN_COMPILE_S = 15.0
-"""One training group's compilations (its iteration and its periodic evaluation) and
-start: the quick run's training runs took 21-24 s, of which 7.9 s are 0.5 M samples at the
-two lines above (128-128-64: 63,700 samples/s with the overhead)."""
+EST_TRAIN_OVERHEAD = 1.27
+"""A training iteration's time over the two lines above (logs, checkpoints, the
+normaliser, the host's share): the power run's ``rl`` on random_reactive, 30 seeds x 245
+iterations of 16,384 samples (120.4 M) in 1,988 s, 16.51 us a sample against the lines'
+13.04 us at 128-128-64 (1.266). The periodic evaluations are counted apart (below)."""
+EST_TRAIN_PREDICTOR_S_PER_SAMPLE = 1.83e-6
+"""A learned predictor's time a training sample (``p_rl``, ``sp_rl``, a tracker: it runs
+in every rollout step, whatever the policy's size): the power run's ``sp_rl`` on
+random_reactive took 2,208 s of iterations against ``rl``'s 1,988 s at the same 120.4 M
+samples."""
+EST_TRAIN_EVAL_S_PER_1000_EPISODES = {False: 2.22, True: 3.74}
+"""Seconds per 1000 periodic-evaluation episodes of a training group (``TrainRunCfg``'s
+``eval_every``, ``eval_episodes``; its compilation and the run's final writes included),
+without and with a learned predictor: the power run's groups on random_reactive less their
+iterations, 346 s (``rl``) and 584 s (``sp_rl``) for 26 evaluations x 30 seeds x 200
+episodes."""
+EST_TRAIN_COMPILE_S = 13.0
+"""One training group's compilations (its iteration) and start: the quick run's training
+runs took 21-24 s: 8.3 s of 0.5 M samples at the lines above, 2.2 s of 5 periodic
+evaluations of 200 episodes, and this."""
 EST_EVAL_COMPILE_S = 5.0
 """One open-plane evaluation program (Table I, Fig. 6, transfer): the quick run's Table I
 jobs with a compilation took 7-9 s, ``sp_rl``'s, whose program was compiled, 4 s."""
@@ -95,11 +115,28 @@ def samples_per_s(plan: Plan) -> float:
     return 1.0 / ((EST_S_PER_SAMPLE + EST_S_PER_PPO_FLOP * flops) * EST_TRAIN_OVERHEAD)
 
 
+def train_evaluations(plan: Plan) -> int:
+    """Periodic evaluations in one training run of ``plan`` (the first iteration's, every
+    ``eval_every``-th, the last's)."""
+    cfg = TrainRunCfg(total_steps=plan.train_steps, ppo=plan.ppo)
+    iters = -(-plan.train_steps // plan.ppo.batch_size)
+    return sum(eval_due(cfg, it, 0, iters) for it in range(iters))
+
+
+def group_s(plan: Plan, method: str) -> float:
+    """One (method, behaviour) group of the plan's seeds: its iterations, its periodic
+    evaluations and its compilation."""
+    learned = METHODS[method].predictor_kind is not None
+    per_sample_s = 1.0 / samples_per_s(plan) + EST_TRAIN_PREDICTOR_S_PER_SAMPLE * learned
+    iterations = plan.seeds * plan.train_steps * per_sample_s
+    episodes = plan.seeds * train_evaluations(plan) * TrainRunCfg.eval_episodes
+    evaluations = episodes / 1000 * EST_TRAIN_EVAL_S_PER_1000_EPISODES[learned]
+    return iterations + evaluations + EST_TRAIN_COMPILE_S
+
+
 def training_s(plan: Plan) -> float:
-    groups = plan.training_runs // plan.seeds
-    return (
-        plan.training_runs * plan.train_steps / samples_per_s(plan) + groups * EST_TRAIN_COMPILE_S
-    )
+    methods = trained_methods(plan.method_names)
+    return len(plan.behaviors) * sum(group_s(plan, m) for m in methods)
 
 
 def _policies(plan: Plan) -> int:
