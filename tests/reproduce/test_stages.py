@@ -53,8 +53,9 @@ def test_switched_off_stages_leave_the_list():
     # cell): training 0.5 M samples (31 iterations, 5 evaluations) 2 x (8.282 + 2.22 + 13)
     # + 2 x (9.197 + 3.74 + 13) = 98.88; Table I 7 x 6 x 0.666 + 7 x 5 = 63.0; Fig. 9 (100
     # episodes) 0.45 + 1.3 + 0.45 + 1.8 + 2 x 2.25 + 3 x 6 = 26.5; predictors 4 + 2 + 4 (4 M
-    # Table II steps: 32); videos 8 + 8. Power (rl, sp_rl; 30 seeds; 2 behaviours): training 2 x (2 347.1 + 2 803.8) =
-    # 10 301.7; Table I 62 x 2 x 2 x 0.774 + 4 x 2 x 5 = 232; predictors 2 x 16 + 2 x 2.
+    # Table II steps: 32); videos 8 + 8. Power (rl, sp_rl; 30 seeds; 2 behaviours): training
+    # 2 x (2 347.1 + 2 803.8) = 10 301.7; Table I 62 x 2 x 2 x 0.774 + 4 x 2 x 5 = 232;
+    # predictors 2 x 16 + 2 x 2.
     [("full", 19934.4889024), ("quick", 246.35124032), ("power", 10569.6896768)],
 )
 def test_the_estimate_is_the_one_printed_before_the_stage_list(profile, seconds):
