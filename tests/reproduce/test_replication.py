@@ -38,3 +38,43 @@ def test_overlapping_seeds_or_another_plan_is_not_a_replication():
     legacy = copy.deepcopy(a)
     del legacy["plan"]["first_seed"]
     assert compare(legacy, _results(10, 0.1, 0.02, 0.2, "resolved"))[0]["sets"][0] == "0-9"
+
+
+def _with_cells(results: dict, sp_rl: list[float], rl: list[float]) -> dict:
+    results["plan"]["primary_endpoints"] = [
+        {"name": "sp_rl_vs_rl_reactive", "kind": "ordering", "behavior": "reactive",
+         "speed_mps": 1.8, "claim": ["sp_rl", "rl"], "metric": "success_rate", "margin": 0.1},
+        {"name": "oracle_headroom_reactive", "kind": "headroom", "behavior": "reactive",
+         "speed_mps": 1.8, "claim": None, "metric": "success_rate", "margin": 0.1},
+    ]  # fmt: skip
+    cells = [
+        {"method": m, "behavior": "reactive", "speed_mps": 1.8, "episodes": 300 * len(p),
+         "per_seed_success": p, "success_rate": sum(p) / len(p)}
+        for m, p in (("sp_rl", sp_rl), ("rl", rl))
+    ]  # fmt: skip
+    results["table_i"] = {"cells": cells}
+    return results
+
+
+def test_pooled_judges_the_ordering_endpoints_on_both_sets_seeds():
+    """The pooled interval is Welch's over the union of both sets' seeds (scipy's
+    Welch test gives the same p-value); the headroom endpoint is left out."""
+    import numpy as np
+    import scipy.stats
+
+    from dyncatch.reproduce.replication import pooled, pooled_markdown
+
+    rng = np.random.default_rng(0)
+    s1, r1, s2, r2 = (rng.uniform(lo, 1.0, 10).round(3).tolist() for lo in (0.7, 0.2, 0.7, 0.2))
+    a = _with_cells(_results(0, 0.1, 0.0, 0.2, "resolved"), s1, r1)
+    b = _with_cells(_results(10, 0.1, 0.0, 0.2, "resolved"), s2, r2)
+    [row] = pooled(a, b)
+    sp, r = s1 + s2, r1 + r2
+    assert row["seeds"] == [20, 20] and row["sets"] == ["0-9", "10-19"]
+    assert row["difference"] == pytest.approx(np.mean(sp) - np.mean(r))
+    assert row["p_value"] == pytest.approx(scipy.stats.ttest_ind(sp, r, equal_var=False).pvalue)
+    assert row["role"] == "primary" and row["resolution"] == "resolved"
+    assert row["smallest_resolvable_difference"] == pytest.approx(row["half_width"])
+    assert "| 20 (0-9 + 10-19) |" in pooled_markdown([row])
+    with pytest.raises(ValueError, match="share seeds"):
+        pooled(a, _with_cells(_results(5, 0.1, 0.0, 0.2, "resolved"), s2, r2))

@@ -5,9 +5,16 @@ folders, the second with ``--first-seed`` past the first's seeds (``--seeds 10``
 ``--seeds 10 --first-seed 10``), then ``python benchmarks/replication.py A B``. Two sets
 agree on an endpoint when both give the same resolution (``resolved``, ``equivalent within
 the margin`` or ``unresolved``) and, where resolved, the same direction.
+
+``pooled`` judges each ordering endpoint once more on both sets' seeds together (a seed is
+a seed, whichever run trained it): the interval a target half-width is read against when
+one set's seeds are too few for it.
 """
 
 from __future__ import annotations
+
+from dyncatch.reproduce.aggregate import gap, judge_family
+from dyncatch.reproduce.endpoints import Endpoint
 
 
 def _key(row: dict) -> tuple:
@@ -64,6 +71,68 @@ def compare(a: dict, b: dict) -> list[dict]:
             }
         )
     return out
+
+
+def _merged_cell(cells: list[dict], method: str, behavior: str, speed_mps: float) -> dict | None:
+    """One Table I cell with the seeds of every matching cell of ``cells``; None if none."""
+    found = [
+        c
+        for c in cells
+        if c["method"] == method and c["behavior"] == behavior
+        and abs(c["speed_mps"] - speed_mps) < 1e-9
+    ]  # fmt: skip
+    if not found or any(len(c.get("per_seed_success") or []) < 2 for c in found):
+        return None
+    per_seed = [x for c in found for x in c["per_seed_success"]]
+    return {
+        "method": method,
+        "per_seed_success": per_seed,
+        "success_rate": sum(per_seed) / len(per_seed),
+        "episodes": sum(c["episodes"] for c in found),
+    }
+
+
+def pooled(a: dict, b: dict) -> list[dict]:
+    """Each primary ordering endpoint of the plan judged on the seeds of both runs
+    together (``compare`` checks first that they are one plan on disjoint seeds). A
+    headroom endpoint is left out: its rival, the best non-oracle method, is chosen per run."""
+    compare(a, b)
+    cells = a["table_i"]["cells"] + b["table_i"]["cells"]
+    endpoints = [Endpoint.from_json(e) for e in a["plan"]["primary_endpoints"]]
+    out = []
+    for e in endpoints:
+        if e.claim is None:
+            continue
+        winner, loser = (_merged_cell(cells, m, e.behavior, e.speed_mps) for m in e.claim)
+        if winner is None or loser is None:
+            continue
+        check = {
+            "kind": e.kind,
+            "behavior": e.behavior,
+            "speed_mps": e.speed_mps,
+            "claim": f"{e.claim[0]} > {e.claim[1]}",
+            **gap(winner, loser),
+        }
+        row = judge_family([check], [e])[0]
+        row["sets"] = [_seeds(a), _seeds(b)]
+        out.append(row)
+    return out
+
+
+def pooled_markdown(rows: list[dict]) -> str:
+    lines = [
+        "| endpoint | seeds per method | difference [95 % CI] | smallest resolvable | outcome |",
+        "|---|---:|---|---:|---|",
+    ]
+    for r in rows:
+        lo, hi = r["ci95"]
+        name = f"{r['endpoint']} ({r['claim']}, {r['behavior']}, {r['speed_mps']:g} m/s)"
+        lines.append(
+            f"| {name} | {min(r['seeds'])} ({' + '.join(r['sets'])}) | "
+            f"{r['difference']:+.3f} [{lo:+.3f}, {hi:+.3f}] | "
+            f"+-{r['smallest_resolvable_difference']:.3f} | {_outcome(r)} |"
+        )
+    return "\n".join(lines)
 
 
 def replication_markdown(rows: list[dict]) -> str:
