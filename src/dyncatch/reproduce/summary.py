@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from dyncatch.bench.machine import machine_info
-from dyncatch.reproduce import aggregate, fig9, fig9_report, report
+from dyncatch.reproduce import aggregate, fig9, fig9_report, report, verdicts
 from dyncatch.reproduce.endpoints import against_paper
 from dyncatch.reproduce.paper import paper_difference
 from dyncatch.reproduce.plan import Plan
@@ -52,11 +52,17 @@ def training_rows(data: dict, seed_ids=None) -> list[dict]:
     return training
 
 
+def high_speeds(plan: Plan) -> list[float]:
+    """The plan's speeds the ordering claims are judged at: the paper's high speeds (1.6 m/s
+    and up), else the fastest."""
+    return [v for v in plan.speeds_mps if v >= 1.6 - 1e-9] or [max(plan.speeds_mps)]
+
+
 def judge(plan: Plan, cells: list[dict], averages: list[dict]) -> tuple[list, list]:
     """(the paper's ordering claims at high speed and on the average, the oracle's
     headroom over the best non-oracle method at each speed), judged as one family: the
     plan's primary endpoints alone, every other check under one Holm correction."""
-    high = [v for v in plan.speeds_mps if v >= 1.6 - 1e-9] or [max(plan.speeds_mps)]
+    high = high_speeds(plan)
     claims = paper_claims(plan.method_names)
     ordering = aggregate.ordering_gaps(cells, high, claims)
     ordering += aggregate.ordering_gaps(averages, [None], claims)
@@ -133,6 +139,10 @@ def results(plan: Plan, out: Path, outputs: dict, command: str, commit: str) -> 
         "table_i": {"cells": cells, "average": averages, "rows": t1_rows},
         "primary_endpoints": primary_rows(plan, checks + headroom),
         "ordering_checks": checks,
+        "verdicts": {
+            "orderings": verdicts.ordering_rows(checks),
+            "levels": verdicts.level_rows(cells, high_speeds(plan)),
+        },
         "headroom": headroom,
         "robust_summary": robust_summary(cells, plan.speeds_mps, plan.method_names),
         "improvement_probabilities": improvement_probabilities(

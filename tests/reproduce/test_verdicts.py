@@ -1,0 +1,79 @@
+"""The paper's Table I claims, one verdict each (reproduce/verdicts.py)."""
+
+import pytest
+
+from dyncatch.reproduce.verdicts import (
+    level_against_paper,
+    level_rows,
+    ordering_rows,
+    verdicts_markdown,
+)
+
+
+def _check(claim, behavior, speed, lo, hi, role="secondary", p_holm=0.01, metric="success_rate"):
+    c = {"kind": "ordering", "claim": claim, "behavior": behavior, "speed_mps": speed,
+         "metric": metric, "difference": (lo + hi) / 2, "ci95": [lo, hi], "role": role}  # fmt: skip
+    if role == "secondary":
+        c["p_holm"] = p_holm
+    else:
+        c["margin"] = 0.10
+    return c
+
+
+@pytest.mark.parametrize(
+    ("ci", "paper", "verdict"),
+    [
+        ((0.53, 0.76), 0.0, "above the paper's value"),
+        ((0.79, 0.906), 0.908, "below the paper's value"),
+        ((0.85, 0.95), 0.908, "holds the paper's value"),
+        ((0.0, 0.0), 0.0, "holds the paper's value"),
+    ],
+)
+def test_a_level_holds_the_papers_value_or_lies_above_or_below_it(ci, paper, verdict):
+    assert level_against_paper(ci, paper) == verdict
+
+
+def test_orderings_read_the_papers_difference_and_the_family_correction():
+    """Paper, reactive 1.8 m/s: sp_rl 0.908, rl 0.000, p_rl 0.009 (Table I)."""
+    primary = _check("sp_rl > rl", "reactive", 1.8, 0.077, 0.325, role="primary")
+    holm_lost = _check("sp_rl > p_rl", "reactive", 1.8, 0.01, 0.30, p_holm=0.08)
+    holm_kept = _check("sp_rl > p_rl", "reactive", 1.6, 0.01, 0.30, p_holm=0.01)
+    spans = _check("sp_rl > rl", "random_reactive", 1.8, -0.05, 0.95)
+    no_paper = _check("gt_rl > sp_rl", "reactive", 1.8, 0.05, 0.15)
+    rows = ordering_rows([primary, holm_lost, holm_kept, spans, no_paper])
+    assert [r["claim"] for r in rows] == [
+        "sp_rl > rl",
+        "sp_rl > p_rl",
+        "sp_rl > p_rl",
+        "sp_rl > rl",
+    ]
+    assert rows[0]["paper"] == pytest.approx(0.908)
+    assert rows[0]["against_paper"] == "direction reproduced, smaller"
+    assert rows[1]["paper"] == pytest.approx(0.899)
+    assert rows[1]["against_paper"] == "unresolved after Holm, paper's value excluded"
+    assert rows[2]["against_paper"] == "direction reproduced, smaller"
+    assert rows[3]["against_paper"] == "unresolved"
+
+
+def test_levels_come_from_cells_over_seeds_at_the_given_speeds():
+    cells = [
+        {"behavior": "reactive", "method": "rl", "speed_mps": 1.8, "seeds": 30,
+         "success_rate": 0.648, "success_ci95": [0.536, 0.760], "ci_over": "seeds"},
+        {"behavior": "reactive", "method": "rl", "speed_mps": 1.2, "seeds": 30,
+         "success_rate": 0.99, "success_ci95": [0.98, 1.0], "ci_over": "seeds"},
+        {"behavior": "reactive", "method": "pursuit", "speed_mps": 1.8, "seeds": 1,
+         "success_rate": 0.0, "success_ci95": [0.0, 0.01], "ci_over": "episodes"},
+        {"behavior": "reactive", "method": "gt_rl", "speed_mps": 1.8, "seeds": 30,
+         "success_rate": 1.0, "success_ci95": [1.0, 1.0], "ci_over": "seeds"},
+    ]  # fmt: skip
+    [row] = level_rows(cells, [1.6, 1.8])
+    assert (row["method"], row["paper"], row["against_paper"]) == (
+        "rl",
+        0.0,
+        "above the paper's value",
+    )
+    table = verdicts_markdown([], [row])
+    assert (
+        "| rl catches | reactive | 1.8 m/s | success | 0.000 | 0.648 [0.536, 0.760] (30 seeds)"
+        in table
+    )
