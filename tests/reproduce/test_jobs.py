@@ -39,7 +39,7 @@ def _seeds(job: TrainJob) -> tuple:
 
 
 def test_unfinished_seeds_of_a_method_are_one_group(tmp_path):
-    plan = Plan(seeds=3, behaviors=("reactive",))
+    plan = Plan(seeds=3, behaviors=("reactive",), vmap_seeds=True)
     first, *others = TRAINED
     _finish(tmp_path, "reactive", first, 1)
     jobs = train_jobs(plan, tmp_path)
@@ -61,7 +61,9 @@ def test_unfinished_seeds_of_a_method_are_one_group(tmp_path):
 
 
 def test_without_vmap_seeds_each_seed_is_its_own_job(tmp_path):
-    plan = Plan(seeds=2, behaviors=("reactive",), vmap_seeds=False)
+    """One by one is the default (faster on 2 CPU cores: reproduce/estimate.py)."""
+    plan = Plan(seeds=2, behaviors=("reactive",))
+    assert not plan.vmap_seeds
     jobs = train_jobs(plan, tmp_path)
     assert [_seeds(j)[2] for j in jobs] == [(0,), (1,)] * len(TRAINED)
 

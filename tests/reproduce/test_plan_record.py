@@ -44,11 +44,12 @@ def test_a_changed_or_removed_field_is_refused(tmp_path):
 
 
 def test_who_runs_the_jobs_is_not_recorded_and_a_serial_folder_resumes_on_ray(tmp_path):
-    recorded = _record(tmp_path, Plan(seeds=2))
+    recorded = _record(tmp_path, Plan(seeds=2, vmap_seeds=True))
     not_recorded = {"executor", "ray_address", "ray_workers", "ray_gpus_per_job", "out"}
     assert not not_recorded & set(recorded)
     assert recorded["vmap_seeds"] is True  # float-level differences: recorded
-    check_plan(tmp_path, Plan(seeds=2, executor="ray", ray_address="auto", ray_gpus_per_job=0.5))
+    ray = Plan(seeds=2, vmap_seeds=True, executor="ray", ray_address="auto", ray_gpus_per_job=0.5)
+    check_plan(tmp_path, ray)
     with pytest.raises(ValueError, match=r"vmap_seeds \(True -> False\)"):
         check_plan(tmp_path, Plan(seeds=2, vmap_seeds=False))
 
@@ -58,8 +59,8 @@ def test_a_plan_recorded_before_vmap_seeds_resumes_only_one_seed_at_a_time(tmp_p
     del recorded["vmap_seeds"]  # recorded before the field: its seeds were trained one by one
     (tmp_path / "plan.json").write_text(json.dumps(recorded))
     with pytest.raises(ValueError, match=r"vmap_seeds \(None -> True\)"):
-        check_plan(tmp_path, Plan(seeds=2))
-    check_plan(tmp_path, Plan(seeds=2, vmap_seeds=False))
+        check_plan(tmp_path, Plan(seeds=2, vmap_seeds=True))
+    check_plan(tmp_path, Plan(seeds=2))
     assert json.loads((tmp_path / "plan.json").read_text())["vmap_seeds"] is False
 
 

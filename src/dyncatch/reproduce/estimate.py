@@ -28,6 +28,8 @@ names the measurement it comes from, all on the idle 2-core Xeon:
 
 from __future__ import annotations
 
+import math
+
 from dyncatch.bench.ppo_bench import ppo_flops_per_sample
 from dyncatch.policies.registry import BASELINES
 from dyncatch.predictor.table import all_kinds
@@ -45,11 +47,20 @@ EST_S_PER_PPO_FLOP = 5.9e-12
 """Seconds per PPO FLOP (``bench.ppo_bench.ppo_flops_per_sample``'s count). With the line
 above it fits ``dyncatch bench ppo`` on the idle 2-core Xeon: 27,000 samples/s at
 256-256-128 (5.47 M FLOPs per sample) and 76,322 at 128-128-64 (1.41 M)."""
-EST_TRAIN_OVERHEAD = 1.27
-"""A training iteration's time over the two lines above (logs, checkpoints, the
-normaliser, the host's share): the power run's ``rl`` on random_reactive, 30 seeds x 245
-iterations of 16,384 samples (120.4 M) in 1,988 s, 16.51 us a sample against the lines'
-13.04 us at 128-128-64 (1.266). The periodic evaluations are counted apart (below)."""
+EST_TRAIN_OVERHEAD = 0.937
+"""A training iteration's time over the two lines above at one seed (the lines are a fit to
+an older benchmark; today's ``dyncatch bench ppo`` runs 0.916 of them, a training run a
+little more): with ``EST_GROUP_LOG_COST`` it gives back the power run's ``rl`` on
+random_reactive, 30 seeds x 245 iterations of 16,384 samples (120.4 M) in 1,988 s of
+iterations, 16.51 us a sample (13.04 us x 0.937 x 1.350 at 128-128-64). The periodic
+evaluations are counted apart (below)."""
+EST_GROUP_LOG_COST = 0.103
+"""A vmap-ped group of S seeds costs (1 + this x ln S) times one seed's time a sample on 2
+CPU cores: ``dyncatch bench ppo --json --seeds S --gemm-rows 4096`` at 128-128-64, run back
+to back on the idle 2-core Xeon (2026-12-03): 83,730 samples/s at 1 seed, 67,568 at 10
+(0.81x: 0.104 ln 10), 62,130 at 30 (0.74x: 0.102 ln 30). One seed's batch already fills
+both cores, and a group's batched products run slower than one seed's; hence
+``Plan.vmap_seeds`` is off by default on CPU."""
 EST_TRAIN_PREDICTOR_S_PER_SAMPLE = 1.83e-6
 """A learned predictor's time a training sample (``p_rl``, ``sp_rl``, a tracker: it runs
 in every rollout step, whatever the policy's size): the power run's ``sp_rl`` on
@@ -108,11 +119,17 @@ def table_ii_s(plan: Plan) -> float:
     return steps / 1e6 * EST_PREDICTOR_S_PER_M_STEPS
 
 
+def group_size(plan: Plan) -> int:
+    """Seeds trained as one computation: the plan's seeds with ``vmap_seeds``, else 1."""
+    return plan.seeds if plan.vmap_seeds else 1
+
+
 def samples_per_s(plan: Plan) -> float:
     """Training samples per second at the plan's network size (``rl``'s input in the plan's
-    world)."""
+    world) and group size, all of a group's seeds counted."""
     flops = ppo_flops_per_sample(obs_dim(plan.world), plan.ppo)["total"]
-    return 1.0 / ((EST_S_PER_SAMPLE + EST_S_PER_PPO_FLOP * flops) * EST_TRAIN_OVERHEAD)
+    group = 1.0 + EST_GROUP_LOG_COST * math.log(group_size(plan))
+    return 1.0 / ((EST_S_PER_SAMPLE + EST_S_PER_PPO_FLOP * flops) * EST_TRAIN_OVERHEAD * group)
 
 
 def train_evaluations(plan: Plan) -> int:
@@ -124,8 +141,9 @@ def train_evaluations(plan: Plan) -> int:
 
 
 def group_s(plan: Plan, method: str) -> float:
-    """One (method, behaviour) group of the plan's seeds: its iterations, its periodic
-    evaluations and its compilation."""
+    """One (method, behaviour)'s seeds, grouped or one by one: their iterations, their
+    periodic evaluations and one compilation (one by one, the later seeds reuse the first
+    seed's programs in the same process)."""
     learned = METHODS[method].predictor_kind is not None
     per_sample_s = 1.0 / samples_per_s(plan) + EST_TRAIN_PREDICTOR_S_PER_SAMPLE * learned
     iterations = plan.seeds * plan.train_steps * per_sample_s

@@ -146,9 +146,13 @@ class Plan:
     on reactive spread less than that, 0.950-0.962, so there it is part of the CI)."""
     fig9_duration_s: float | None = None
     """Episode length of Fig. 9 (default: each scene's, 40 s as in the paper)."""
-    vmap_seeds: bool = True
-    """Train a (method, behaviour)'s seeds as one vmap-ped computation (dyncatch.rl.seeds:
-    equal to separate runs to float tolerance); --no-vmap-seeds trains them one by one."""
+    vmap_seeds: bool = False
+    """Train a (method, behaviour)'s seeds as one vmap-ped computation (--vmap-seeds;
+    dyncatch.rl.seeds: equal to separate runs to float tolerance), or one by one in this
+    process (the default), the later seeds reusing the first's compiled programs. On 2 CPU
+    cores one by one is faster: a group of 10 seeds trains 0.81x as many samples a second as
+    one seed, of 30 0.74x (docs/scaling.md); on a GPU a group fills the device (pass
+    --vmap-seeds). The power run of 2026-12-03 and its replication were trained grouped."""
     executor: Literal["serial", "ray"] = "serial"
     """Who runs each stage's independent jobs (predictors, training runs, evaluation cells,
     videos): this process, or Ray tasks (dyncatch.reproduce.executors, docs/scaling.md).
