@@ -214,6 +214,33 @@ def test_the_wall_clock_adds_a_killed_invocations_time(tmp_path):
     assert final["total_s"] == pytest.approx(killed + final["this_invocation_s"])
 
 
+def test_the_wall_clock_adds_each_stages_time_over_invocations(tmp_path, monkeypatch):
+    """A stage's seconds are its own (from ``enter`` to the next), summed with the earlier
+    invocations'; the report sets them beside the estimate."""
+    from dyncatch.reproduce.report import stage_times_markdown
+
+    now = [0.0]
+    monkeypatch.setattr(pipeline.time, "perf_counter", lambda: now[0])
+    path = tmp_path / "wall.json"
+    write_json(path, {"this_invocation_s": 50.0, "total_s": 50.0, "stages_s": {"training": 40.0}})
+    with pipeline.WallClock(path, every_s=3600) as clock:
+        now[0] = 5.0
+        clock.enter("training")
+        now[0] = 65.0
+        assert read_json(path)["stages_s"] == {"training": 40.0}  # not yet rewritten
+        assert clock.tick()["stages_s"] == {"training": 100.0}  # the stage still running
+        clock.enter("table_i")
+        now[0] = 95.0
+    wall = read_json(path)
+    assert wall["stages_s"] == {"training": 100.0, "table_i": 30.0}
+    assert wall["total_s"] == 145.0 and wall["this_invocation_s"] == 95.0
+    wall["stages_estimate_s"] = {"training": 120.0, "table_i": 30.0, "fig9": 60.0}
+    table = stage_times_markdown(wall)
+    assert "| training | 2.0 min | 1.7 min | 0.83 |" in table
+    assert "| fig9 | 1.0 min | - | - |" in table
+    assert "| **whole run** | 3.5 min | 2.4 min | 0.69 |" in table
+
+
 def test_every_method_is_presented_and_the_claims_are_the_papers():
     assert list(PRESENTATION) == list(METHODS)
     assert set(METHODS) - set(reproduced_methods()) == {"st_rl", "st_fp", "rnn_rl", "rnn_sp_rl"}

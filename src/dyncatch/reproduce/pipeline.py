@@ -38,13 +38,19 @@ def _commit() -> str:
 
 class WallClock:
     """The plan's wall time over every invocation, kept in ``wall.json``: the total of the
-    earlier invocations plus this one's, rewritten every ``every_s`` seconds (and at
-    ``tick``), so an invocation that is killed loses at most ``every_s`` of its time."""
+    earlier invocations plus this one's, and each stage's (``enter``), rewritten every
+    ``every_s`` seconds (and at ``tick``), so an invocation that is killed loses at most
+    ``every_s`` of its time."""
 
     def __init__(self, path: Path, every_s: float = 30.0):
         self.path = path
-        self.previous_s = read_json(path)["total_s"] if path.exists() else 0.0
+        before = read_json(path) if path.exists() else {}
+        self.previous_s = before.get("total_s", 0.0)
+        self.previous_stages_s = dict(before.get("stages_s", {}))
         self.t_start = time.perf_counter()
+        self._stages_s: dict[str, float] = {}
+        self._stage: str | None = None
+        self._stage_t0 = 0.0
         self._stop = threading.Event()
         self._lock = threading.Lock()
         self._thread = threading.Thread(target=self._loop, args=(every_s,), daemon=True)
@@ -52,10 +58,32 @@ class WallClock:
     def elapsed_s(self) -> float:
         return time.perf_counter() - self.t_start
 
+    def enter(self, stage: str | None) -> None:
+        """Count the time from now on to ``stage`` (None: to no stage)."""
+        with self._lock:
+            now = time.perf_counter()
+            if self._stage is not None:
+                spent = now - self._stage_t0
+                self._stages_s[self._stage] = self._stages_s.get(self._stage, 0.0) + spent
+            self._stage, self._stage_t0 = stage, now
+
+    def _all_stages_s(self, now: float) -> dict[str, float]:
+        out = dict(self.previous_stages_s)
+        for name, s in self._stages_s.items():
+            out[name] = out.get(name, 0.0) + s
+        if self._stage is not None:
+            out[self._stage] = out.get(self._stage, 0.0) + now - self._stage_t0
+        return out
+
     def tick(self) -> dict:
         with self._lock:
-            this_s = self.elapsed_s()
-            wall = {"this_invocation_s": this_s, "total_s": self.previous_s + this_s}
+            now = time.perf_counter()
+            this_s = now - self.t_start
+            wall = {
+                "this_invocation_s": this_s,
+                "total_s": self.previous_s + this_s,
+                "stages_s": self._all_stages_s(now),
+            }
             layout.write_json(self.path, wall)
         return wall
 
@@ -71,6 +99,7 @@ class WallClock:
     def __exit__(self, *exc) -> None:
         self._stop.set()
         self._thread.join()
+        self.enter(None)
         self.tick()
 
 
@@ -101,13 +130,16 @@ def _run(plan: Plan, out: Path, command, say, progress, clock: WallClock) -> dic
             jobs = stage.jobs(plan, out)
             todo = f"{len(jobs)} job{'s' * (len(jobs) != 1)}" if jobs else "done"
             log(f"stage {i}/{len(stages)}: {stage.title} ({todo})")
+            clock.enter(stage.name)
             executor.run(jobs)
             outputs[stage.name] = stage.collect(plan, out)
     finally:
+        clock.enter(None)
         executor.close()
 
     results = summary.results(plan, out, outputs, command, _commit())
     results["wall"] = clock.tick()
+    results["wall"]["stages_estimate_s"] = {s.name: s.estimate(plan) for s in stages}
     layout.write_json(out / "results.json", results)
     (out / "report.md").write_text(render_report(results, plan))
     this_min = results["wall"]["this_invocation_s"] / 60

@@ -310,3 +310,22 @@ def primary_markdown(primary: dict) -> str:
 
 def table_ii_markdown(rows: list[dict]) -> str:
     return table_ii_rows_markdown(rows)
+
+
+def stage_times_markdown(wall: dict) -> str:
+    """Each stage's measured wall time (``wall["stages_s"]``) against its estimate
+    (``wall["stages_estimate_s"]``), then the whole run's; a stage with no measurement (its
+    jobs done by an invocation before wall.json counted stages) shows '-'."""
+    lines = ["| stage | estimate | measured | measured / estimate |", "|---|---:|---:|---:|"]
+
+    def row(name: str, estimate: float, measured: float | None) -> str:
+        if measured is None:
+            return f"| {name} | {estimate / 60:.1f} min | - | - |"
+        ratio = f"{measured / estimate:.2f}" if estimate > 0 else "-"
+        return f"| {name} | {estimate / 60:.1f} min | {measured / 60:.1f} min | {ratio} |"
+
+    estimates, measured = wall["stages_estimate_s"], wall.get("stages_s", {})
+    for name, estimate in estimates.items():
+        lines.append(row(name, estimate, measured.get(name)))
+    lines.append(row("**whole run**", sum(estimates.values()), wall["total_s"]))
+    return "\n".join(lines)

@@ -182,4 +182,15 @@ def render_report(r: dict, plan: Plan) -> str:
                 f"- {label(c['method'])} [{c['behavior']}]({c['file']}) at "
                 f"{c['speed_mps']} m/s, policy trained on {c['trained_on']}: {outcome}"
             )
+    if r["wall"].get("stages_estimate_s"):
+        lines += [
+            "",
+            "## Wall time by stage",
+            "",
+            "Measured over every invocation of this command (`wall.json`; the time between "
+            "stages, the report's included, is in the total only) against the estimate "
+            "printed before the first stage (`reproduce/estimate.py`).",
+            "",
+            report.stage_times_markdown(r["wall"]),
+        ]
     return "\n".join(lines) + "\n"
