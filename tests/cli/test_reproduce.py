@@ -245,7 +245,7 @@ def _report_lines(path) -> list[str]:
     lines, section = [], ""
     for line in path.read_text().splitlines():
         section = line if line.startswith("## ") else section
-        if line.startswith(skip):
+        if line.startswith(skip) or section == "## Wall time by stage":
             continue
         # The Fig. 5 table's last three columns are wall seconds.
         fig5_row = section.startswith("## Fig. 5") and line.startswith("| straight |")
