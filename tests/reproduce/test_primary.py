@@ -121,7 +121,17 @@ class TestAgainstThePaper:
         ],
     )
     def test_each_outcome_by_hand(self, ci, paper, verdict):
-        assert against_paper(ci, paper, 0.10) == verdict
+        """The resolution as ``aggregate`` gives it for a t-interval: resolved where the CI
+        excludes 0, equivalent where it lies inside +-0.10."""
+        lo, hi = ci
+        resolution = (
+            "resolved"
+            if lo > 0 or hi < 0
+            else "equivalent within the margin"
+            if -0.10 < lo and hi < 0.10
+            else "unresolved"
+        )
+        assert against_paper(ci, paper, resolution, 0.10) == verdict
 
     def test_a_plan_without_a_measured_endpoint_says_so(self):
         plan = Plan(methods=METHODS, speeds_mps=(0.8,), behaviors=("reactive",))

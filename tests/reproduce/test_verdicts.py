@@ -17,6 +17,7 @@ def _check(claim, behavior, speed, lo, hi, role="secondary", p_holm=0.01, metric
         c["p_holm"] = p_holm
     else:
         c["margin"] = 0.10
+        c["resolution"] = "resolved" if lo > 0 or hi < 0 else "unresolved"
     return c
 
 
@@ -38,7 +39,7 @@ def test_orderings_read_the_papers_difference_and_the_family_correction():
     primary = _check("sp_rl > rl", "reactive", 1.8, 0.077, 0.325, role="primary")
     holm_lost = _check("sp_rl > p_rl", "reactive", 1.8, 0.01, 0.30, p_holm=0.08)
     holm_kept = _check("sp_rl > p_rl", "reactive", 1.6, 0.01, 0.30, p_holm=0.01)
-    spans = _check("sp_rl > rl", "random_reactive", 1.8, -0.05, 0.95)
+    spans = _check("sp_rl > rl", "random_reactive", 1.8, -0.05, 0.95, p_holm=0.4)
     no_paper = _check("gt_rl > sp_rl", "reactive", 1.8, 0.05, 0.15)
     rows = ordering_rows([primary, holm_lost, holm_kept, spans, no_paper])
     assert [r["claim"] for r in rows] == [

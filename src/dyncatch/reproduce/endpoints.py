@@ -143,30 +143,38 @@ def validate_endpoints(endpoints, behaviors, methods) -> None:
             raise ValueError(f"{where}: the speed must be >= 0 and the margin > 0")
 
 
-def against_paper(ci95: tuple[float, float], paper: float | None, margin: float) -> str | None:
-    """An endpoint's verdict on the paper's claim, from our 95 % CI of the difference and the
-    paper's value (None where the paper gives no number: None).
+Resolution = Literal["resolved", "equivalent within the margin", "unresolved"]
+"""How a check came out (``aggregate``: a primary endpoint on its own p-value and margin, a
+secondary one on its Holm-adjusted p-value)."""
 
-    - ``reproduced``: the CI excludes 0 on the paper's side and holds the paper's value;
-    - ``direction reproduced, smaller`` (or ``larger``): the CI excludes 0 on the paper's
-      side but not its value;
-    - ``contradicted``: the CI excludes 0 on the other side (or the paper's value is 0), or
-      lies inside +-margin while the paper's value does not (equivalence at the margin);
-    - ``unresolved, paper's value excluded``: the CI spans 0 but not the paper's value;
-    - ``unresolved``: the CI holds both 0 and the paper's value.
+
+def against_paper(
+    ci95: tuple[float, float], paper: float | None, resolution: Resolution, margin: float
+) -> str | None:
+    """An endpoint's verdict on the paper's claim, from how the check came out
+    (``resolution``, judged where the check is: ``aggregate``), our 95 % CI of the
+    difference and the paper's value (None where the paper gives no number: None).
+
+    - ``reproduced``: resolved on the paper's side, the CI holding the paper's value;
+    - ``direction reproduced, smaller`` (or ``larger``): resolved on the paper's side, the
+      CI not holding its value;
+    - ``contradicted``: resolved on the other side (or the paper's value is 0), or
+      equivalent within +-margin while the paper's value is not;
+    - ``unresolved, paper's value excluded``: unresolved, the CI not holding the paper's
+      value; ``unresolved``: it holds it.
     """
     if paper is None:
         return None
     lo, hi = ci95
     holds_paper = lo <= paper <= hi
-    if lo > 0 or hi < 0:
-        ours = 1.0 if lo > 0 else -1.0
+    if resolution == "resolved":
+        ours = 1.0 if lo + hi > 0 else -1.0
         if ours * paper <= 0:
             return "contradicted"
         if holds_paper:
             return "reproduced"
         smaller = abs(paper) > max(abs(lo), abs(hi))
         return "direction reproduced, " + ("smaller" if smaller else "larger")
-    if -margin < lo and hi < margin:
+    if resolution == "equivalent within the margin":
         return "reproduced" if abs(paper) < margin else "contradicted"
     return "unresolved" if holds_paper else "unresolved, paper's value excluded"

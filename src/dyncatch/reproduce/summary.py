@@ -90,7 +90,7 @@ def primary_rows(plan: Plan, checks: list[dict]) -> dict:
         paper = None
         if c["kind"] == "ordering":
             paper = paper_difference(c["behavior"], winner, loser, c["speed_mps"], c["metric"])
-        verdict = against_paper(tuple(c["ci95"]), paper, c["margin"])
+        verdict = against_paper(tuple(c["ci95"]), paper, c["resolution"], c["margin"])
         rows.append({**c, "paper_difference": paper, "against_paper": verdict})
     measured = {r["endpoint"] for r in rows}
     declared = [e.name for e in plan.primary_endpoints]

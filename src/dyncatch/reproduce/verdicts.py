@@ -33,12 +33,17 @@ def level_against_paper(ci95: tuple[float, float], paper: float) -> str:
 
 
 def _ordering_verdict(check: dict, paper: float, margin: float) -> str:
-    lo, hi = check["ci95"]
-    excludes_zero = lo > 0 or hi < 0
+    if check.get("role") == "primary":
+        return against_paper(tuple(check["ci95"]), paper, check["resolution"], margin)
     holm = check.get("p_holm")
-    if check.get("role") == "secondary" and excludes_zero and holm is not None and holm >= ALPHA:
-        return "unresolved after Holm" + ("" if lo <= paper <= hi else ", paper's value excluded")
-    return against_paper((lo, hi), paper, margin)
+    resolved = holm is not None and holm < ALPHA
+    verdict = against_paper(
+        tuple(check["ci95"]), paper, "resolved" if resolved else "unresolved", margin
+    )
+    lo, hi = check["ci95"]
+    if not resolved and (lo > 0 or hi < 0):
+        verdict = verdict.replace("unresolved", "unresolved after Holm", 1)
+    return verdict
 
 
 def ordering_rows(checks: list[dict], margin: float = 0.10) -> list[dict]:
