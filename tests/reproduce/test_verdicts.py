@@ -78,3 +78,31 @@ def test_levels_come_from_cells_over_seeds_at_the_given_speeds():
         "| rl catches | reactive | 1.8 m/s | success | 0.000 | 0.648 [0.536, 0.760] (30 seeds)"
         in table
     )
+
+
+def test_fig9_levels_are_the_papers_method_where_its_text_gives_a_value():
+    """The paper's text gives Room-0's success of its method with the blend (0.738 on
+    reactive); other rows, scenes and single-seed cells have no verdict."""
+    from dyncatch.reproduce.verdicts import fig9_level_rows
+
+    def cell(scene, method, seeds=10, ci=(0.95, 0.99)):
+        return {"scene": scene, "behavior": "reactive", "method": method, "seeds": seeds,
+                "success_rate": sum(ci) / 2, "success_ci95": list(ci),
+                "ci_over": "seeds" if seeds > 1 else "episodes"}  # fmt: skip
+
+    cells = [
+        cell("room_0", "sp_rl+blend"),
+        cell("room_0", "sp_rl"),
+        cell("room_8", "sp_rl+blend"),
+        cell("room_0", "sp_rl+blend", seeds=1),
+    ]
+    [row] = fig9_level_rows(cells, 1.8)
+    assert (row["method"], row["paper"], row["against_paper"]) == (
+        "sp_rl+blend in room_0",
+        0.738,
+        "above the paper's value",
+    )
+    assert fig9_level_rows(cells[:1], None)[0]["speed"] == "drawn"
+    assert "| sp_rl+blend in room_0 catches | reactive | 1.8 m/s | success | 0.738 |" in (
+        verdicts_markdown([], [row])
+    )

@@ -53,13 +53,14 @@ def render_report(r: dict, plan: Plan) -> str:
     v = r.get("verdicts")
     if v and (v["orderings"] or v["levels"]):
         lines += [
-            "## Verdicts on the paper's Table I, claim by claim",
+            "## Verdicts on the paper's numbers, claim by claim",
             "",
             "Each ordering the paper's Table I makes at the speeds judged here (its "
             "difference against ours, judged as above: a primary endpoint on its own, a "
             "secondary check only where its Holm-adjusted p-value resolves it), then each "
-            "learned method's success against the paper's value (level: our CI over seeds "
-            "holds it, or lies above or below it).",
+            "learned method's success, and Fig. 9's where the paper's text gives it, "
+            "against the paper's value (level: our CI over seeds holds it, or lies above or "
+            "below it).",
             "",
             verdicts.verdicts_markdown(v["orderings"], v["levels"]),
             "",

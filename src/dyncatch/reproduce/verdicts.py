@@ -8,15 +8,21 @@ Two kinds of claim, both read from a run's ``results.json`` content:
   primary endpoint on its own p-value, a secondary check on its Holm-adjusted one); a
   secondary whose CI excludes 0 but whose Holm-adjusted p-value does not resolve it reads
   ``unresolved after Holm``;
-- **levels**: each learned method's success at the high speeds, the paper's value against
-  our CI over seeds (``level_against_paper``): ``holds the paper's value``, or ours above or
+- **levels**: each learned method's success at the high speeds, and Fig. 9's where the
+  paper's text gives it (its method with the blend, Room-0), the paper's value against our
+  CI over seeds (``level_against_paper``): ``holds the paper's value``, or ours above or
   below it.
 """
 
 from __future__ import annotations
 
 from dyncatch.reproduce.endpoints import against_paper
-from dyncatch.reproduce.paper import paper_cell, paper_difference
+from dyncatch.reproduce.paper import (
+    PAPER_FIG9_METHOD,
+    PAPER_FIG9_SUCCESS,
+    paper_cell,
+    paper_difference,
+)
 
 ALPHA = 0.05
 """Two-sided level of every interval and test (the 95 % CIs of aggregate)."""
@@ -90,6 +96,32 @@ def level_rows(cells: list[dict], speeds_mps) -> list[dict]:
     return rows
 
 
+def fig9_level_rows(cells: list[dict], speed_mps: float | None) -> list[dict]:
+    """Fig. 9's cells of the paper's method (with the blend) where its text gives a success
+    (over 2+ seeds): ours with its CI, the paper's, the verdict. ``speed_mps`` is the plan's
+    Fig. 9 speed (None: drawn per episode)."""
+    rows = []
+    for c in cells:
+        paper = PAPER_FIG9_SUCCESS.get((c["scene"], c["behavior"]))
+        if c["method"] != PAPER_FIG9_METHOD or paper is None or c.get("ci_over") != "seeds":
+            continue
+        ci = tuple(c["success_ci95"])
+        rows.append(
+            {
+                "behavior": c["behavior"],
+                "method": f"{c['method']} in {c['scene']}",
+                "speed_mps": speed_mps,
+                "speed": "drawn" if speed_mps is None else f"{speed_mps:g} m/s",
+                "seeds": c["seeds"],
+                "ours": c["success_rate"],
+                "ci95": list(ci),
+                "paper": paper,
+                "against_paper": level_against_paper(ci, paper),
+            }
+        )
+    return rows
+
+
 def _speed(speed_mps) -> str:
     return "average" if speed_mps is None else f"{speed_mps:g} m/s"
 
@@ -116,7 +148,8 @@ def verdicts_markdown(orderings: list[dict], levels: list[dict]) -> str:
     for r in levels:
         lo, hi = r["ci95"]
         lines.append(
-            f"| {r['method']} catches | {r['behavior']} | {_speed(r['speed_mps'])} | success | "
+            f"| {r['method']} catches | {r['behavior']} | "
+            f"{r.get('speed') or _speed(r['speed_mps'])} | success | "
             f"{r['paper']:.3f} | {r['ours']:.3f} [{lo:.3f}, {hi:.3f}] ({r['seeds']} seeds) | "
             f"level | {r['against_paper']} |"
         )
