@@ -128,7 +128,10 @@ def _run(plan: Plan, out: Path, command, say, progress, clock: WallClock) -> dic
     try:
         for i, stage in enumerate(stages, 1):
             jobs = stage.jobs(plan, out)
-            todo = f"{len(jobs)} job{'s' * (len(jobs) != 1)}" if jobs else "done"
+            todo = "done"
+            if jobs:
+                todo = f"{len(jobs)} job{'s' * (len(jobs) != 1)}; the whole stage estimated at "
+                todo += f"{stage.estimate(plan) / 60:.0f} min"
             log(f"stage {i}/{len(stages)}: {stage.title} ({todo})")
             clock.enter(stage.name)
             executor.run(jobs)
