@@ -60,7 +60,7 @@ CPU cores: ``dyncatch bench ppo --json --seeds S --gemm-rows 4096`` at 128-128-6
 to back on the idle 2-core Xeon (2026-12-03): 83,730 samples/s at 1 seed, 67,568 at 10
 (0.81x: 0.104 ln 10), 62,130 at 30 (0.74x: 0.102 ln 30). One seed's batch already fills
 both cores, and a group's batched products run slower than one seed's; hence
-``Plan.vmap_seeds`` is off by default on CPU."""
+``Plan.vmap_seeds`` is off by default (dyncatch is CPU-first; on a GPU pass --vmap-seeds)."""
 EST_TRAIN_PREDICTOR_S_PER_SAMPLE = 1.83e-6
 """A learned predictor's time a training sample (``p_rl``, ``sp_rl``, a tracker: it runs
 in every rollout step, whatever the policy's size): the power run's ``sp_rl`` on
