@@ -106,3 +106,35 @@ def test_fig9_levels_are_the_papers_method_where_its_text_gives_a_value():
     assert "| sp_rl+blend in room_0 catches | reactive | 1.8 m/s | success | 0.738 |" in (
         verdicts_markdown([], [row])
     )
+
+
+def test_table_ii_claim_is_the_sign_at_the_largest_budget_the_paper_gives():
+    from dyncatch.reproduce.verdicts import predictor_rows
+
+    def row(behavior, kind, budget, error, paper):
+        return {"behavior": behavior, "kind": kind, "budget_steps": budget,
+                "error_mps": error, "paper_error_mps": paper}  # fmt: skip
+
+    table = [
+        row("reactive", "vanilla", 500_000, 0.40, 1.201),
+        row("reactive", "self_aware", 500_000, 0.10, 0.211),
+        row("reactive", "vanilla", 2_000_000, 0.32, 1.197),
+        row("reactive", "self_aware", 2_000_000, 0.08, 0.128),
+        row("bounce", "vanilla", 2_000_000, 0.020, 0.022),
+        row("bounce", "self_aware", 2_000_000, 0.025, 0.022),
+        row("random_reactive", "vanilla", 2_000_000, 0.33, None),
+        row("random_reactive", "self_aware", 2_000_000, 0.33, None),
+    ]
+    reactive, bounce = predictor_rows(table)
+    assert (reactive["budget_steps"], reactive["ours"], reactive["paper"]) == pytest.approx(
+        (2_000_000, 0.24, 1.069)
+    )
+    assert reactive["against_paper"] == "same sign as the paper's (one predictor: no CI)"
+    # The paper's bounce errors are equal at 2 M (0 difference): no sign to agree with.
+    assert bounce["against_paper"] == "the paper's errors are equal (one predictor: no CI)"
+    flipped = [{**r, "error_mps": 1.0} if r["kind"] == "self_aware" else r for r in table]
+    assert predictor_rows(flipped)[0]["against_paper"] == "the other sign (one predictor: no CI)"
+    table_md = verdicts_markdown([], [], [reactive])
+    assert (
+        "| reactive | 2 M steps | error, vanilla - self_aware (m/s) | +1.069 | +0.240 |" in table_md
+    )

@@ -51,7 +51,7 @@ def render_report(r: dict, plan: Plan) -> str:
         "",
     ]
     v = r.get("verdicts")
-    if v and (v["orderings"] or v["levels"]):
+    if v and (v["orderings"] or v["levels"] or v.get("predictors")):
         lines += [
             "## Verdicts on the paper's numbers, claim by claim",
             "",
@@ -60,9 +60,10 @@ def render_report(r: dict, plan: Plan) -> str:
             "secondary check only where its Holm-adjusted p-value resolves it), then each "
             "learned method's success, and Fig. 9's where the paper's text gives it, "
             "against the paper's value (level: our CI over seeds holds it, or lies above or "
-            "below it).",
+            "below it), then Table II's self-aware predictor against the vanilla one (one "
+            "predictor a cell: the sign only).",
             "",
-            verdicts.verdicts_markdown(v["orderings"], v["levels"]),
+            verdicts.verdicts_markdown(v["orderings"], v["levels"], v.get("predictors", [])),
             "",
         ]
     cells, averages = r["table_i"]["cells"], r["table_i"]["average"]

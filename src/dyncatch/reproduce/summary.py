@@ -143,6 +143,7 @@ def results(plan: Plan, out: Path, outputs: dict, command: str, commit: str) -> 
             "orderings": verdicts.ordering_rows(checks),
             "levels": verdicts.level_rows(cells, high_speeds(plan))
             + verdicts.fig9_level_rows(fig9_cells, plan.fig9_speed_mps),
+            "predictors": verdicts.predictor_rows(outputs.get("table_ii") or []),
         },
         "headroom": headroom,
         "robust_summary": robust_summary(cells, plan.speeds_mps, plan.method_names),

@@ -11,7 +11,9 @@ Two kinds of claim, both read from a run's ``results.json`` content:
 - **levels**: each learned method's success at the high speeds, and Fig. 9's where the
   paper's text gives it (its method with the blend, Room-0), the paper's value against our
   CI over seeds (``level_against_paper``): ``holds the paper's value``, or ours above or
-  below it.
+  below it;
+- **Table II's**: the self-aware predictor's error below the vanilla one's, per behaviour
+  (``predictor_rows``; one predictor a cell, so the sign only).
 """
 
 from __future__ import annotations
@@ -122,12 +124,53 @@ def fig9_level_rows(cells: list[dict], speed_mps: float | None) -> list[dict]:
     return rows
 
 
+def predictor_rows(table_ii: list[dict]) -> list[dict]:
+    """Table II's claim, the self-aware predictor's error below the vanilla one's, per
+    behaviour at the largest budget where the paper gives both: the paper's difference
+    (vanilla minus self-aware, m/s) against ours. One predictor per cell, so no CI: the
+    verdict says only whether the sign is the paper's."""
+    cells = {(r["behavior"], r["kind"], r["budget_steps"]): r for r in table_ii}
+    rows = []
+    for behavior in dict.fromkeys(r["behavior"] for r in table_ii):
+        budgets = sorted(
+            b
+            for (beh, kind, b), r in cells.items()
+            if beh == behavior and kind == "vanilla" and r.get("paper_error_mps") is not None
+            and (beh, "self_aware", b) in cells
+            and cells[(beh, "self_aware", b)].get("paper_error_mps") is not None
+        )  # fmt: skip
+        if not budgets:
+            continue
+        vanilla, aware = (
+            cells[(behavior, "vanilla", budgets[-1])],
+            cells[(behavior, "self_aware", budgets[-1])],
+        )
+        ours = vanilla["error_mps"] - aware["error_mps"]
+        paper = vanilla["paper_error_mps"] - aware["paper_error_mps"]
+        if paper == 0:
+            verdict = "the paper's errors are equal"
+        else:
+            verdict = "same sign as the paper's" if ours * paper > 0 else "the other sign"
+        rows.append(
+            {
+                "behavior": behavior,
+                "budget_steps": budgets[-1],
+                "ours": ours,
+                "paper": paper,
+                "against_paper": verdict + " (one predictor: no CI)",
+            }
+        )
+    return rows
+
+
 def _speed(speed_mps) -> str:
     return "average" if speed_mps is None else f"{speed_mps:g} m/s"
 
 
-def verdicts_markdown(orderings: list[dict], levels: list[dict]) -> str:
-    """The two kinds of claim as one table: claim, the paper's value, ours [95 % CI], role,
+def verdicts_markdown(
+    orderings: list[dict], levels: list[dict], predictors: list[dict] = ()
+) -> str:
+    """The kinds of claim as one table: claim, the paper's value, ours [95 % CI], role,
     verdict on the paper's claim."""
     lines = [
         "| claim | behaviour | speed | measure | paper | ours [95 % CI] | role "
@@ -152,5 +195,11 @@ def verdicts_markdown(orderings: list[dict], levels: list[dict]) -> str:
             f"{r.get('speed') or _speed(r['speed_mps'])} | success | "
             f"{r['paper']:.3f} | {r['ours']:.3f} [{lo:.3f}, {hi:.3f}] ({r['seeds']} seeds) | "
             f"level | {r['against_paper']} |"
+        )
+    for r in predictors:
+        lines.append(
+            f"| self_aware predictor's error below vanilla's | {r['behavior']} | "
+            f"{r['budget_steps'] / 1e6:g} M steps | error, vanilla - self_aware (m/s) | "
+            f"{r['paper']:+.3f} | {r['ours']:+.3f} | Table II | {r['against_paper']} |"
         )
     return "\n".join(lines)
