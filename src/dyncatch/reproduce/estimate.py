@@ -87,14 +87,18 @@ and the full run's Table I, 204 cells x 1000 episodes and 84 compilations, 732 s
 (204 x (0.45 + 1.08) + 84 x 5)."""
 EST_EVAL_S_PER_1000_EPISODES = 1.08
 """Seconds per 1000 open-plane episodes of 20 s (the line above)."""
-EST_SCENE_S_PER_1000_EPISODES = {False: 13.0, True: 18.0}
+EST_SCENE_S_PER_1000_EPISODES = {False: 4.7, True: 16.1}
 """Seconds per 1000 Fig. 9 episodes of 40 s in a room, plain and with the blend
-(``Plan.fig9_episodes``, measured in room_8)."""
+(``Plan.fig9_episodes``): ``python benchmarks/fig9_episode_cost.py`` with the power run's
+``sp_rl`` seed 0 in room_8 on reactive at 1.8 m/s, 500 episodes, the idle 2-core Xeon
+(2026-12-03, commit 4d782fd): 4.65 and 4.75 s plain, 16.0 and 16.1 s blended (pursuit
+alone: 2.0 s, so the networks and the blend are the cost, not the scene). The earlier
+constants, 13 and 18 s, were measured on older code (15 inputs)."""
 EST_SCENE_COMPILE_S = 6.0
 """One Fig. 9 program (a scene's obstacles and scan, the blend a flag): the quick run's
-Fig. 9 jobs, 8-10 s each, less their cells at the constants above (5.8-6.0 s); the full
-run's Fig. 9, 192 cells and 96 compilations (one per row, scene and behaviour then) in
-2,190 s besides its 6 videos, gives 5.8 s."""
+Fig. 9 jobs, 8-10 s each, less their cells at the rates measured then (13 and 18 s per
+1000 episodes), 5.8-6.0 s; the full run's Fig. 9, 192 cells and 96 compilations (one per
+row, scene and behaviour then) in 2,190 s besides its 6 videos, gives 5.8 s at those rates."""
 EST_PREDICTOR_S_PER_M_STEPS = 8.0
 """Seconds per million interaction steps a predictor trains on (its data collected, its
 updates): Table II of the quick run, 2 kinds x 4 behaviours x 0.5 M steps, took 32 s."""
