@@ -5,6 +5,10 @@ the scripted pursuit (the simulator alone), after compilation: the rates behind
     python benchmarks/fig9_episode_cost.py --run RUN --predictor PREDICTOR.safetensors \\
         [--method sp_rl --scene room_8 --behavior reactive --speed-mps 1.8 --episodes 500]
 
+``--breakdown`` also times the blended row with eq. 10's blend cut to each of its parts
+(``Blended._blend`` replaced, for profiling only): the flag's ``lax.cond`` alone, the
+clearance and weights, pi_collid's range scan, pi_collid's corridor steering on a fixed scan.
+
 Each rate is the second of two identical calls; the first call's extra seconds are its
 compilation (the blended row shares the plain row's program: none). On the idle machine.
 """
@@ -45,6 +49,7 @@ def run(argv: list[str] | None = None) -> int:
     ap.add_argument("--behavior", default="reactive")
     ap.add_argument("--speed-mps", type=float, default=1.8)
     ap.add_argument("--episodes", type=int, default=500)
+    ap.add_argument("--breakdown", action="store_true", help="time the blend's parts too")
     args = ap.parse_args(argv)
 
     from dyncatch.utils.jax_setup import setup_jax
@@ -65,8 +70,44 @@ def run(argv: list[str] | None = None) -> int:
             policy = BASELINES["pursuit"](world)
         rate, compile_s = seconds_per_1000(policy, world, args.episodes, CONTACT_TOL_M)
         out[f"{name}_s_per_1000"], out[f"{name}_first_call_extra_s"] = rate, compile_s
+    if args.breakdown:
+        out["blend_parts_s_per_1000"] = _breakdown(spec, args, CONTACT_TOL_M)
     print(json.dumps(out))
     return 0
+
+
+def _breakdown(spec, args, contact_tol_m: float) -> dict[str, float]:
+    import jax.numpy as jnp
+
+    from dyncatch.policies import blend
+    from dyncatch.reproduce.fig9 import Deployment
+
+    def scan(self, state):
+        return blend.collid_scan_m(state, self.world, self.cfg.collid)
+
+    def fixed_scan(state):
+        # A scan the compiler cannot fold away (it depends on the state).
+        return jnp.full((blend.CollidCfg().scan_rays,), 3.0) + 1e-3 * state.robot.xy_m[0]
+
+    parts = {
+        "cond only": lambda self, state, a: a,
+        "clearance and weights": lambda self, state, a: sum(self.weights(state)) * a,
+        "range scan": lambda self, state, a: a + 0.0 * jnp.sum(scan(self, state)),
+        "corridor steering on a fixed scan": lambda self, state, a: blend.collid_action(
+            fixed_scan(state), a, self.world, self.cfg.collid
+        ),
+    }
+    whole, out = blend.Blended._blend, {}
+    try:
+        for name, fn in parts.items():
+            blend.Blended._blend = fn
+            jax.clear_caches()
+            where = Deployment(args.scene, args.behavior, True, spec, None, args.speed_mps)
+            policy, world = where.load(blend_as_flag=True)
+            out[name] = seconds_per_1000(policy, world, args.episodes, contact_tol_m)[0]
+    finally:
+        blend.Blended._blend = whole
+    return out
 
 
 if __name__ == "__main__":
