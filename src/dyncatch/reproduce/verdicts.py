@@ -18,6 +18,7 @@ Two kinds of claim, both read from a run's ``results.json`` content:
 
 from __future__ import annotations
 
+from dyncatch.evaluation.intervals import CONFIDENCE
 from dyncatch.reproduce.endpoints import against_paper
 from dyncatch.reproduce.paper import (
     PAPER_FIG9_METHOD,
@@ -26,8 +27,8 @@ from dyncatch.reproduce.paper import (
     paper_difference,
 )
 
-ALPHA = 0.05
-"""Two-sided level of every interval and test (the 95 % CIs of aggregate)."""
+ALPHA = 1 - CONFIDENCE
+"""Two-sided level of every test, that of aggregate's intervals."""
 
 
 def level_against_paper(ci95: tuple[float, float], paper: float) -> str:
