@@ -35,7 +35,7 @@ from dyncatch.fullbody.gait import (
     touchdown_point,
     yaw_of,
 )
-from dyncatch.fullbody.qp import solve_dense
+from dyncatch.fullbody.qp import proxsuite_module, solve_dense
 
 
 def _rot_z(yaw: float) -> np.ndarray:
@@ -277,6 +277,7 @@ def _solve(hess, grad, ineq, lb, ub, mp) -> np.ndarray | None:
         return solve_dense(hess, grad, ineq, np.zeros(len(ineq)), lb, ub, mp.solver_tolerance)
     # Another solver of qpsolvers (an optional dependency); imported here, after
     # fullbody.qp has loaded ProxSuite's reproducible build, which qpsolvers then shares.
+    proxsuite_module()
     import qpsolvers
 
     return qpsolvers.solve_qp(

@@ -8,9 +8,11 @@ solves of one trot, the same inputs, two different answers; the SSE2 build, whos
 packets match the heap's alignment, gives one). Over a trot those bits grow into different
 episodes, so neither the same key played twice nor episodes split over worker processes
 repeated one another. One build can be loaded per process (they register the same Python
-types): this module loads the SSE2 build when it is the first to import ProxSuite (so
-``dyncatch.fullbody`` is to be imported before ``qpsolvers`` or ``proxsuite``); if another
-build was loaded before it, it warns once and solves with that one.
+types): ``proxsuite_module`` loads the SSE2 build when it is the first to import ProxSuite
+(the first solve calls it, and ``mpc._solve`` before it imports ``qpsolvers``); if another
+build was loaded before it, it warns once and solves with that one. Importing this module
+imports no ProxSuite, an optional dependency (the fullbody extra), so that the core library
+(``dyncatch train``, evaluation) runs without it.
 """
 
 from __future__ import annotations
@@ -25,6 +27,26 @@ SSE2_BUILD = "proxsuite.proxsuite_pywrap"
 """The module of ProxSuite's SSE2 build (``proxsuite/__init__.py`` picks among three)."""
 
 
+_PROXSUITE = None
+"""The ProxSuite build in use, once ``proxsuite_module`` has loaded it."""
+
+
+def proxsuite_module():
+    """ProxSuite's SSE2 build, loaded on first use (a warning if another build came first)."""
+    global _PROXSUITE
+    if _PROXSUITE is None:
+        _PROXSUITE = _load_sse2()
+        if _PROXSUITE.__name__ != SSE2_BUILD:
+            warnings.warn(
+                f"ProxSuite was imported with its {_PROXSUITE.__name__} build before "
+                "dyncatch.fullbody.qp loaded it: the MPC's solves (and full-body episodes) "
+                "will not repeat to the bit; solve with dyncatch.fullbody before importing "
+                "qpsolvers or proxsuite",
+                stacklevel=2,
+            )
+    return _PROXSUITE
+
+
 def _load_sse2():
     if "proxsuite" not in sys.modules:
         # proxsuite/__init__.py asks proxsuite.instructionset which wide build the CPU runs;
@@ -37,16 +59,6 @@ def _load_sse2():
         finally:
             del sys.modules["proxsuite.instructionset"]
     return sys.modules["proxsuite"]._submodule
-
-
-_proxsuite = _load_sse2()
-if _proxsuite.__name__ != SSE2_BUILD:
-    warnings.warn(
-        f"ProxSuite was imported with its {_proxsuite.__name__} build before "
-        "dyncatch.fullbody.qp: the MPC's solves (and full-body episodes) will not repeat to "
-        "the bit; import dyncatch.fullbody before qpsolvers or proxsuite",
-        stacklevel=2,
-    )
 
 
 def solve_dense(
@@ -64,7 +76,7 @@ def solve_dense(
     c = np.vstack([ineq, np.eye(n)])
     lower = np.concatenate([np.full(ineq.shape[0], -np.inf), lb])
     upper = np.concatenate([ineq_ub, ub])
-    qp = _proxsuite.proxqp
+    qp = proxsuite_module().proxqp
     result = qp.dense.solve(hess, grad, None, None, c, lower, upper, eps_abs=eps_abs)
     if result.info.status != qp.QPSolverOutput.PROXQP_SOLVED:
         return None
