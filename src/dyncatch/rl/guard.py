@@ -4,7 +4,7 @@ the checkpoint on disk stays the last good state."""
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import jax
@@ -17,8 +17,7 @@ class NonFiniteError(ValueError):
     the checkpoint on disk holds."""
 
 
-@jax.jit
-def _finite_leaves(tree) -> dict[str, jax.Array]:
+def _finite_parts(tree) -> dict[str, jax.Array]:
     """Per top-level part of ``tree``, whether every value in it is finite."""
     return {
         name: jnp.stack([jnp.isfinite(x).all() for x in jax.tree.leaves(part)]).all()
@@ -26,12 +25,34 @@ def _finite_leaves(tree) -> dict[str, jax.Array]:
     }
 
 
+_finite_leaves = jax.jit(_finite_parts)
+_finite_leaves_by_seed = jax.jit(jax.vmap(_finite_parts))
+"""``_finite_parts`` of a seed group's state (every leaf with a leading seed axis): one
+program and one transfer for the group, where a check per seed sliced every leaf of the
+state and synchronised once per seed (on 2 CPU cores 1.2 s of a 30-seed iteration)."""
+
+
+def _bad_parts(flags: Mapping[str, object], metrics: Mapping[str, float]) -> list[str]:
+    bad = [name for name, ok in flags.items() if not bool(ok)]
+    return bad + [k for k, v in metrics.items() if v != "" and not np.isfinite(float(v))]
+
+
 def non_finite_parts(params, norm, metrics: Mapping[str, float]) -> list[str]:
     """The names of what is not finite: metric names (``loss``, ...), ``parameters``, or
     ``observation normaliser``; [] when all is well. ``params``/``norm`` of one run."""
     flags = jax.device_get(_finite_leaves({"parameters": params, "observation normaliser": norm}))
-    bad = [name for name, ok in flags.items() if not bool(ok)]
-    return bad + [k for k, v in metrics.items() if v != "" and not np.isfinite(float(v))]
+    return _bad_parts(flags, metrics)
+
+
+def non_finite_parts_by_seed(
+    params, norm, metrics: Sequence[Mapping[str, float]]
+) -> list[list[str]]:
+    """``non_finite_parts`` of each seed of a group (``params``/``norm`` with a leading seed
+    axis, ``metrics`` one mapping per seed), checked in one program."""
+    flags = jax.device_get(
+        _finite_leaves_by_seed({"parameters": params, "observation normaliser": norm})
+    )
+    return [_bad_parts({name: f[i] for name, f in flags.items()}, m) for i, m in enumerate(metrics)]
 
 
 def check_finite(
@@ -46,6 +67,13 @@ def check_finite(
 
     ``saved_iteration`` is the iteration of the checkpoint on disk (None: none written)."""
     bad = non_finite_parts(params, norm, metrics)
+    raise_non_finite(bad, iteration, checkpoint, saved_iteration)
+
+
+def raise_non_finite(
+    bad: Sequence[str], iteration: int, checkpoint: Path, saved_iteration: int | None
+) -> None:
+    """Raise ``NonFiniteError`` naming ``bad`` (``non_finite_parts``), if any."""
     if not bad:
         return
     kept = (

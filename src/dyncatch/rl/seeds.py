@@ -25,7 +25,7 @@ import jax
 import jax.numpy as jnp
 from jax.sharding import Mesh
 
-from dyncatch.rl.guard import check_finite
+from dyncatch.rl.guard import non_finite_parts_by_seed, raise_non_finite
 from dyncatch.rl.logging import MetricLog
 from dyncatch.rl.runner import TrainRunCfg, TrainRunner, eval_due, seed_cfgs
 from dyncatch.rl.sharding import state_shardings
@@ -72,9 +72,15 @@ def _check_group(cfgs: Sequence[TrainRunCfg]) -> None:
         raise ValueError("the runs of a seed group need distinct seeds and --out folders")
 
 
-def seed_slice(ts: TrainState, i: int) -> TrainState:
-    """Seed ``i``'s state out of a group's (every leaf's leading axis)."""
+@jax.jit
+def _seed_slice(ts: TrainState, i: jax.Array) -> TrainState:
     return jax.tree.map(lambda x: x[i], ts)
+
+
+def seed_slice(ts: TrainState, i: int) -> TrainState:
+    """Seed ``i``'s state out of a group's (every leaf's leading axis): one program for
+    every leaf (sliced one by one, a state's 105 leaves took 38 ms a seed on 2 CPU cores)."""
+    return _seed_slice(ts, jnp.asarray(i, jnp.int32))
 
 
 class SeedGroupRunner:
@@ -177,9 +183,9 @@ class SeedGroupRunner:
                 {**{k: float(v[i]) for k, v in m.items()}, "time_s": now - clock0[i]}
                 for i in range(len(runners))
             ]
-            for i, r in enumerate(runners):
-                one = seed_slice(ts, i)
-                check_finite(one.params, one.norm, metrics[i], it + 1, r.checkpoint, saved)
+            bad = non_finite_parts_by_seed(ts.params, ts.norm, metrics)
+            for r, bad_i in zip(runners, bad, strict=True):
+                raise_non_finite(bad_i, it + 1, r.checkpoint, saved)
             if eval_due(cfg, it, start, total_iters):
                 t_eval = time.perf_counter()
                 for i, r in enumerate(runners):
