@@ -78,3 +78,48 @@ def test_pooled_judges_the_ordering_endpoints_on_both_sets_seeds():
     assert "| 20 (0-9 + 10-19) |" in pooled_markdown([row])
     with pytest.raises(ValueError, match="share seeds"):
         pooled(a, _with_cells(_results(5, 0.1, 0.0, 0.2, "resolved"), s2, r2))
+
+
+def test_a_rounding_only_field_may_differ_and_is_reported():
+    a = _results(0, 0.12, 0.03, 0.21, "resolved")
+    a["plan"]["vmap_seeds"] = True
+    b = _results(10, 0.09, 0.01, 0.17, "resolved")
+    b["plan"]["vmap_seeds"] = False
+    [row] = compare(a, b)
+    assert row["agree"] and row["rounding_only_differences"] == ["vmap_seeds: True/False"]
+    assert (
+        compare(a, copy.deepcopy(a) | {"plan": {**a["plan"], "first_seed": 10}})[0][
+            "rounding_only_differences"
+        ]
+        == []
+    )
+
+
+def test_a_set_trained_in_parts_merges_into_the_set_it_would_have_been():
+    """Two halves of seeds 10-19 merged judge the endpoint on the ten seeds together, as
+    pooling them does; the merged set then compares and pools like one run's."""
+    import numpy as np
+
+    from dyncatch.reproduce.replication import merged, pooled
+
+    rng = np.random.default_rng(1)
+    s, r = (rng.uniform(lo, 1.0, 20).round(3).tolist() for lo in (0.7, 0.2))
+    a = _with_cells(_results(0, 0.1, 0.0, 0.2, "resolved"), s[:10], r[:10])
+    halves = []
+    for first, sl in ((10, slice(10, 15)), (15, slice(15, 20))):
+        h = _with_cells(_results(first, 0.1, 0.0, 0.2, "resolved"), s[sl], r[sl])
+        h["plan"]["seeds"] = 5
+        halves.append(h)
+    b = merged(*halves)
+    assert b["plan"]["seed_list"] == list(range(10, 20)) and b["merged_from"] == ["10-14", "15-19"]
+    [row_b] = b["primary_endpoints"]["measured"]
+    assert row_b["seeds"] == [10, 10]
+    assert row_b["difference"] == pytest.approx(np.mean(s[10:]) - np.mean(r[10:]))
+    [row] = compare(a, b)
+    assert row["sets"] == ["0-9", "10-14 + 15-19"]
+    [p2] = pooled(a, b)
+    [p3] = pooled(a, *halves)
+    assert p2["difference"] == pytest.approx(p3["difference"]) and p3["seeds"] == [20, 20]
+    assert p3["sets"] == ["0-9", "10-14", "15-19"]
+    with pytest.raises(ValueError, match="share seeds"):
+        merged(halves[0], halves[0])

@@ -6,9 +6,13 @@ folders, the second with ``--first-seed`` past the first's seeds (``--seeds 10``
 agree on an endpoint when both give the same resolution (``resolved``, ``equivalent within
 the margin`` or ``unresolved``) and, where resolved, the same direction.
 
-``pooled`` judges each ordering endpoint once more on both sets' seeds together (a seed is
-a seed, whichever run trained it): the interval a target half-width is read against when
-one set's seeds are too few for it.
+``pooled`` judges each ordering endpoint once more on the seeds of every set together (a seed
+is a seed, whichever run trained it): the interval a target half-width is read against when
+one set's seeds are too few for it. ``merged`` makes one set of several runs of one plan on
+disjoint seeds (a seed set trained in parts), to be compared as one.
+
+Plans must be equal but for their seeds and ``ROUNDING_ONLY``: fields that change results
+by float rounding alone, which a replication may differ in (and says so).
 """
 
 from __future__ import annotations
@@ -25,16 +29,38 @@ def _outcome(row: dict) -> str:
     return row["resolution"] + (f" ({row['verdict']})" if row["resolution"] == "resolved" else "")
 
 
+ROUNDING_ONLY = ("vmap_seeds",)
+"""Plan fields that move results by float rounding only: seeds trained as one vmap-ped
+computation or one by one (docs/scaling.md, "Seeds in one jit": parameters equal to float
+tolerance)."""
+
+
 def _plan_and_seeds(results: dict) -> tuple[dict, set[int]]:
-    """The plan without its seeds, and its seeds."""
+    """The plan without its seeds and ``ROUNDING_ONLY`` fields, and its seeds (a merged
+    set lists them, ``seed_list``)."""
     plan = dict(results["plan"])
     first, n = plan.pop("first_seed", 0), plan.pop("seeds")
-    return plan, set(range(first, first + n))
+    listed = plan.pop("seed_list", None)
+    for k in ROUNDING_ONLY:
+        plan.pop(k, None)
+    return plan, set(listed) if listed is not None else set(range(first, first + n))
 
 
 def _seeds(results: dict) -> str:
+    """The seeds as a range, ``0-29``; a merged set's as its parts', ``30-44 + 45-59``."""
+    if "merged_from" in results:
+        return " + ".join(results["merged_from"])
     seeds = _plan_and_seeds(results)[1]
     return f"{min(seeds)}-{max(seeds)}"
+
+
+def rounding_only_differences(a: dict, b: dict) -> list[str]:
+    """The ``ROUNDING_ONLY`` fields in which two plans differ (``field: a/b``)."""
+    return [
+        f"{k}: {a['plan'].get(k)}/{b['plan'].get(k)}"
+        for k in ROUNDING_ONLY
+        if a["plan"].get(k) != b["plan"].get(k)
+    ]
 
 
 def compare(a: dict, b: dict) -> list[dict]:
@@ -68,6 +94,7 @@ def compare(a: dict, b: dict) -> list[dict]:
                 "ci95": [ra["ci95"], rb["ci95"]],
                 "outcome": [_outcome(ra), _outcome(rb)],
                 "agree": _outcome(ra) == _outcome(rb),
+                "rounding_only_differences": rounding_only_differences(a, b),
             }
         )
     return out
@@ -92,13 +119,17 @@ def _merged_cell(cells: list[dict], method: str, behavior: str, speed_mps: float
     }
 
 
-def pooled(a: dict, b: dict) -> list[dict]:
-    """Each primary ordering endpoint of the plan judged on the seeds of both runs
-    together (``compare`` checks first that they are one plan on disjoint seeds). A
-    headroom endpoint is left out: its rival, the best non-oracle method, is chosen per run."""
-    compare(a, b)
-    cells = a["table_i"]["cells"] + b["table_i"]["cells"]
-    endpoints = [Endpoint.from_json(e) for e in a["plan"]["primary_endpoints"]]
+def _check_sets(sets: tuple[dict, ...]) -> None:
+    if len(sets) < 2:
+        raise ValueError("pooling needs at least two seed sets")
+    for i, a in enumerate(sets):
+        for b in sets[i + 1 :]:
+            compare(a, b)
+
+
+def _pooled_rows(sets: tuple[dict, ...]) -> list[dict]:
+    cells = [c for r in sets for c in r["table_i"]["cells"]]
+    endpoints = [Endpoint.from_json(e) for e in sets[0]["plan"]["primary_endpoints"]]
     out = []
     for e in endpoints:
         if e.claim is None:
@@ -114,9 +145,34 @@ def pooled(a: dict, b: dict) -> list[dict]:
             **gap(winner, loser),
         }
         row = judge_family([check], [e])[0]
-        row["sets"] = [_seeds(a), _seeds(b)]
+        row["sets"] = [_seeds(r) for r in sets]
         out.append(row)
     return out
+
+
+def pooled(*sets: dict) -> list[dict]:
+    """Each primary ordering endpoint of the plan judged on the seeds of every set
+    together (``compare`` checks first that each two are one plan on disjoint seeds). A
+    headroom endpoint is left out: its rival, the best non-oracle method, is chosen per run."""
+    _check_sets(sets)
+    return _pooled_rows(sets)
+
+
+def merged(*parts: dict) -> dict:
+    """One seed set of several runs of one plan on disjoint seeds (a set trained in parts,
+    each ``--seeds k --first-seed s``): its plan lists the seeds, its Table I cells hold
+    every part's seeds and its primary endpoints are judged on them (as ``pooled``), so
+    ``compare`` and ``pooled`` read it as one set. Each part trained its own predictors
+    (seeded with its first seed), where one run trains one: say so where it is reported."""
+    _check_sets(parts)
+    seeds = sorted(s for r in parts for s in _plan_and_seeds(r)[1])
+    plan = {**parts[0]["plan"], "seeds": len(seeds), "first_seed": seeds[0], "seed_list": seeds}
+    return {
+        "plan": plan,
+        "merged_from": [_seeds(r) for r in parts],
+        "table_i": {"cells": [c for r in parts for c in r["table_i"]["cells"]]},
+        "primary_endpoints": {"measured": _pooled_rows(parts)},
+    }
 
 
 def pooled_markdown(rows: list[dict]) -> str:
