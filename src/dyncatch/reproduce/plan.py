@@ -165,6 +165,16 @@ class Plan:
     one per core; fewer leave cores to other work)."""
     ray_gpus_per_job: float = 0.0
     """With --executor ray: GPUs each job asks Ray for (e.g. 0.5 packs two jobs a GPU)."""
+    part: BehaviorName | None = None
+    """Run only this trained behaviour's part of the plan into --out
+    (dyncatch.reproduce.parts: its predictors, runs, Table I row, Fig. 6 column, Fig. 9
+    cells and videos; the transfer table in transfer_from's part, Table II in the first
+    part), for machines whose sessions end before the whole plan would; --merge-parts then
+    writes the whole report. Not recorded in plan.json (the part's own plan is)."""
+    merge_parts: tuple[Path, ...] = ()
+    """Folders of this plan's finished parts (--part), one per trained behaviour: their
+    files are copied into --out (no checkpoints, no TensorBoard logs), their wall times
+    summed, and the whole plan's report written from them."""
     ppo: PPOCfg = PPOCfg()
     """PPO hyper-parameters and batch geometry of every run."""
     world: WorldCfg = WorldCfg()
@@ -222,7 +232,15 @@ class Plan:
         return d
 
 
-NOT_RECORDED = ("out", "executor", "ray_address", "ray_workers", "ray_gpus_per_job")
+NOT_RECORDED = (
+    "out",
+    "executor",
+    "ray_address",
+    "ray_workers",
+    "ray_gpus_per_job",
+    "part",
+    "merge_parts",
+)
 """Plan fields that do not shape the results, left out of plan.json."""
 
 
