@@ -318,3 +318,34 @@ def test_a_ray_grid_gives_the_serial_report(quick, local_ray, tmp_path):
     # The retrained run wrote what the serial one did: a checkpoint, logs and done marker.
     for name in ("checkpoint.safetensors", "metrics.csv", "tb", "done.json"):
         assert (run_dir(out, "straight", "rl", 0) / name).exists(), name
+
+
+def test_a_merge_of_finished_parts_is_the_whole_run_without_checkpoints(quick, tmp_path, capsys):
+    """The tiny plan has one behaviour, so its one part is the whole plan: merging the
+    finished run (whose checkpoints the merge leaves behind) runs no job and writes the
+    same results; the wall time is the parts' sum. A folder of another plan, or an
+    unfinished part, is refused naming the flag."""
+    out = tmp_path / "merged"
+    with straight():
+        assert main(["reproduce", "--out", str(out), *TINY, "--merge-parts", str(quick)]) == 0
+    assert not list(out.rglob("checkpoint.safetensors")) and not list(out.rglob("tb"))
+    merged = json.loads((out / "results.json").read_text())
+    whole = json.loads((quick / "results.json").read_text())
+    assert _comparable(merged) == _comparable(whole)
+    assert _report_lines(out / "report.md") == _report_lines(quick / "report.md")
+    [part] = json.loads((out / "parts.json").read_text())
+    assert part["behavior"] == "straight" and part["wall_s"] == pytest.approx(
+        json.loads((quick / "wall.json").read_text())["total_s"]
+    )
+    assert merged["wall"]["total_s"] >= part["wall_s"]
+    capsys.readouterr()
+    with straight():
+        other = [*TINY, "--episodes", "9", "--merge-parts", str(quick)]
+        assert main(["reproduce", "--out", str(tmp_path / "x"), *other]) == 2
+        assert "is no part of this plan" in capsys.readouterr().err
+        unfinished = tmp_path / "unfinished"
+        shutil.copytree(quick, unfinished)
+        (unfinished / "results.json").unlink()
+        args = [*TINY, "--merge-parts", str(unfinished)]
+        assert main(["reproduce", "--out", str(tmp_path / "y"), *args]) == 2
+        assert "part straight is unfinished" in capsys.readouterr().err

@@ -43,5 +43,8 @@ def test_a_part_keeps_its_behaviours_outputs_and_the_shared_ones_once():
     assert circle.table_i_rows == () and circle.transfer_behaviors == () and circle.table_ii
     assert circle.fig6_columns == ("circle",) and circle.fig9_columns == ("circle",)
     assert reactive.to_json()["seeds"] == whole.seeds and reactive.part is None
+    # A plan of one behaviour is its own part.
+    one = Plan(behaviors=("reactive",), table_i_behaviors=None)
+    assert part_plan(one, "reactive").to_json() == one.to_json()
     with pytest.raises(ValueError, match="--part straight is not trained on"):
         part_plan(whole, "straight")

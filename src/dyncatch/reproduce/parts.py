@@ -37,6 +37,14 @@ def _filmed_fig9_behavior(plan: Plan) -> str | None:
     return plan.fig9_columns[0] if plan.fig9 and plan.videos and plan.fig9_columns else None
 
 
+def _narrowed(given: tuple | None, shown: tuple, behavior: str) -> tuple | None:
+    """A shown-behaviours field of a part: ``shown`` kept to ``behavior``, or None (the
+    part's default, its one behaviour) where the whole plan left the field unset too, so
+    that a plan of one behaviour is its own part."""
+    kept = tuple(b for b in shown if b == behavior)
+    return None if given is None and kept == (behavior,) else kept
+
+
 def part_plan(plan: Plan, behavior: str) -> Plan:
     """The part of ``plan`` that trains ``behavior`` alone, with every output of ``plan``
     that lives under it (the module's docstring)."""
@@ -50,10 +58,14 @@ def part_plan(plan: Plan, behavior: str) -> Plan:
     return dataclasses.replace(
         plan,
         behaviors=(behavior,),
-        table_i_behaviors=tuple(b for b in plan.table_i_rows if b == behavior),
-        fig6_behaviors=tuple(b for b in plan.fig6_columns if b == behavior),
+        table_i_behaviors=_narrowed(plan.table_i_behaviors, plan.table_i_rows, behavior),
+        fig6_behaviors=_narrowed(plan.fig6_behaviors, plan.fig6_columns, behavior),
         fig9=fig9,
-        fig9_behaviors=(behavior,) if fig9 else plan.fig9_behaviors,
+        fig9_behaviors=(
+            _narrowed(plan.fig9_behaviors, plan.fig9_columns, behavior)
+            if fig9
+            else plan.fig9_behaviors
+        ),
         transfer_behaviors=plan.transfer_behaviors if behavior == plan.transfer_from else (),
         table_ii=plan.table_ii and first,
         part=None,
