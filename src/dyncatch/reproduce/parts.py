@@ -21,6 +21,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from dyncatch.reproduce.plan import Plan
+from dyncatch.reproduce.replication import ROUNDING_ONLY
 from dyncatch.utils.config_io import config_diff
 from dyncatch.utils.files import read_json, write_json
 
@@ -78,15 +79,21 @@ def part_plans(plan: Plan) -> dict[str, Plan]:
     return {b: part_plan(plan, b) for b in plan.behaviors}
 
 
+def _identity(plan_json: dict) -> dict:
+    """A plan's record without the fields parts may differ in (``ROUNDING_ONLY``: a part
+    trained grouped on a GPU, another one by one on a CPU)."""
+    return {k: v for k, v in plan_json.items() if k not in ROUNDING_ONLY}
+
+
 def _which_part(folder: Path, parts: dict[str, Plan]) -> str:
-    recorded = read_json(
-        folder / "plan.json", "name a part's results folder (run it with --part first)"
+    recorded = _identity(
+        read_json(folder / "plan.json", "name a part's results folder (run it with --part first)")
     )
     for behavior, p in parts.items():
-        if recorded == p.to_json():
+        if recorded == _identity(p.to_json()):
             return behavior
-    near = min(parts, key=lambda b: len(config_diff(recorded, parts[b].to_json())))
-    diff = config_diff(recorded, parts[near].to_json())
+    near = min(parts, key=lambda b: len(config_diff(recorded, _identity(parts[b].to_json()))))
+    diff = config_diff(recorded, _identity(parts[near].to_json()))
     fields = ", ".join(sorted(diff)[:4])
     raise ValueError(
         f"--merge-parts {folder} is no part of this plan: its plan.json differs from part "
@@ -147,6 +154,7 @@ def merge(plan: Plan, folders: Sequence[Path], out: Path) -> dict:
         for name, s in wall.get("stages_s", {}).items():
             stages_s[name] = stages_s.get(name, 0.0) + s
         results = read_json(folder / "results.json")
+        recorded = read_json(folder / "plan.json")
         record.append(
             {
                 "behavior": behavior,
@@ -154,6 +162,7 @@ def merge(plan: Plan, folders: Sequence[Path], out: Path) -> dict:
                 "files": files,
                 "wall_s": wall.get("total_s"),
                 "commit": results.get("commit"),
+                **{k: recorded.get(k) for k in ROUNDING_ONLY},
             }
         )
     write_json(out / "wall.json", {"this_invocation_s": 0.0, "total_s": total_s,
