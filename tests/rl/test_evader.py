@@ -242,3 +242,40 @@ def test_cli_trains(tmp_path):
         ]
     )
     assert rc == 0 and (out / EVADER_CHECKPOINT).exists() and (out / "metrics.csv").exists()
+
+
+def test_an_evader_with_a_field_of_view_observes_whether_it_sees_the_robot():
+    import math
+
+    from dyncatch.sim.behaviors.learned import FOV_FEATURE_NAMES
+
+    env = evader_env(WORLD, pursuit_policy(WORLD), fov_rad=math.radians(120.0))
+    assert env.observation_spec.shape == (len(FOV_FEATURE_NAMES),)
+    s = env.reset(jax.random.key(0))
+    obs = env.observe(s)
+    assert obs.flat.shape == (len(FOV_FEATURE_NAMES),) and float(obs.flat[-1]) in (0.0, 1.0)
+    for bad in (0.0, -1.0, 7.0):
+        with pytest.raises(ValueError, match="field of view"):
+            evader_env(WORLD, pursuit_policy(WORLD), fov_rad=bad)
+
+
+def test_an_evader_trained_with_a_field_of_view_runs_as_the_learned_target(tmp_path):
+    import math
+
+    from dyncatch.sim.behaviors.learned import FOV_FEATURE_NAMES
+
+    fov = math.radians(120.0)
+    cfg = EvaderTrainCfg(
+        total_steps=TINY.batch_size, out=tmp_path, ppo=TINY, world=WORLD, fov_rad=fov
+    )
+    train_evader(cfg)
+    world = WORLD.with_behavior("learned")
+    world = validate_world(
+        world.replace(target=world.target.replace(evader_checkpoint=str(tmp_path)))
+    )
+    net = evader_net(world)
+    assert net.fov_rad == pytest.approx(fov) and net.header["features"] == list(FOV_FEATURE_NAMES)
+    assert net.layers[0][0].shape[0] == len(FOV_FEATURE_NAMES)
+    assert np.all(np.isfinite(np.asarray(_episode(jax.random.key(3), world)[0])))
+    with pytest.raises(ValueError, match="--fov-rad"):
+        train_evader(dataclasses.replace(cfg, out=tmp_path / "x", fov_rad=0.0))

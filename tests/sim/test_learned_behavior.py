@@ -216,3 +216,52 @@ def test_a_first_load_inside_a_traced_step_gives_constants(tmp_path):
     s0 = env.reset(jax.random.key(0), world)
     step = jax.jit(lambda s: env.step(s, jnp.zeros(3), world)[0])
     assert np.all(np.isfinite(np.asarray(step(s0).target.xy_m)))
+
+
+def test_a_field_of_view_hides_the_robot_outside_it():
+    """With a 120 deg field of view the robot 2 m ahead is seen as with a whole turn's view
+    (and robot_visible 1); 2 m behind, or 61 deg off the heading, it reads 0 (and 0)."""
+    from dyncatch.sim.behaviors.learned import FOV_FEATURE_NAMES, feature_names
+
+    fov = math.radians(120.0)
+    assert feature_names(fov) == FOV_FEATURE_NAMES and feature_names() == FEATURE_NAMES
+    ahead = _bodies((3.0, 4.0), math.pi / 2, 1.0, (3.0, 6.0), robot_vel=(2.0, 0.0))
+    full = np.asarray(evader_features(*ahead, WorldCfg()))
+    narrow = np.asarray(evader_features(*ahead, WorldCfg(), fov))
+    np.testing.assert_allclose(narrow, [*full, 1.0], atol=1e-6)
+    for bearing_deg in (180.0, 61.0, -61.0):
+        b = math.radians(90.0 + bearing_deg)  # the target heads north (90 deg)
+        xy = (3.0 + 2.0 * math.cos(b), 4.0 + 2.0 * math.sin(b))
+        hidden = np.asarray(
+            evader_features(*_bodies((3.0, 4.0), math.pi / 2, 1.0, xy), WorldCfg(), fov)
+        )
+        assert hidden[-1] == 0.0 and not hidden[:4].any(), bearing_deg
+        np.testing.assert_allclose(hidden[4:-1], full[4:], atol=1e-6)  # speed, walls, heading
+    at_edge = math.radians(90.0 + 59.0)
+    xy = (3.0 + 2.0 * math.cos(at_edge), 4.0 + 2.0 * math.sin(at_edge))
+    assert evader_features(*_bodies((3.0, 4.0), math.pi / 2, 1.0, xy), WorldCfg(), fov)[-1] == 1.0
+
+
+def test_an_evader_files_field_of_view_is_how_the_learned_target_sees(tmp_path):
+    """The file records the field of view; the deployed evader computes the 12 features of
+    a narrow view from it, and a file whose features do not match its view is refused."""
+    from dyncatch.sim.behaviors.learned import FOV_FEATURE_NAMES, evader_net
+
+    fov = math.radians(120.0)
+    dim = len(FOV_FEATURE_NAMES)
+    kernel = np.zeros((dim, 1), np.float32)
+    kernel[FOV_FEATURE_NAMES.index("robot_visible"), 0] = 0.5  # turns only when it sees
+    net = EvaderNet(((kernel, np.zeros(1, np.float32)),), np.zeros(dim, np.float32),
+                    np.ones(dim, np.float32), math.pi, {"features": list(FOV_FEATURE_NAMES)},
+                    fov_rad=fov)  # fmt: skip
+    world = _learned_world(str(save_evader(tmp_path / EVADER_CHECKPOINT, net)))
+    assert evader_net(world).fov_rad == pytest.approx(fov)
+    ahead = _bodies((3.0, 4.0), math.pi / 2, 1.0, (3.0, 6.0))
+    behind = _bodies((3.0, 4.0), math.pi / 2, 1.0, (3.0, 2.0))
+    turn = lambda bodies: float(learned_heading(*bodies, world, jax.random.key(0))[0])  # noqa: E731
+    assert turn(ahead) == pytest.approx(math.pi / 2 + 0.5 * math.pi)
+    assert turn(behind) == pytest.approx(math.pi / 2)
+    whole_view = EvaderNet(net.layers, net.norm_mean, net.norm_std, math.pi, net.header)
+    bad = str(save_evader(tmp_path / "whole.safetensors", whole_view))
+    with pytest.raises(ConfigError, match="retrain"):
+        _learned_world(bad)

@@ -28,11 +28,13 @@ from flax import struct
 from dyncatch.policies.api import as_recurrent
 from dyncatch.sim import env as sim_env
 from dyncatch.sim.api import Spec
+from dyncatch.sim.behaviors.evader_net import FULL_VIEW_RAD
 from dyncatch.sim.behaviors.learned import (
     ACTION_FRAMES,
-    EVADER_OBS_DIM,
     TURN_LIMIT_RAD,
+    check_fov,
     evader_features,
+    feature_names,
     turn_of,
 )
 from dyncatch.sim.config import WorldCfg
@@ -64,7 +66,7 @@ class EvaderObs:
     """The evader's observation; ``flat`` is the network view (``rl.train.flat_obs``)."""
 
     features: jax.Array
-    """``evader_features``, (EVADER_OBS_DIM,)."""
+    """``evader_features``, (len(feature_names(fov_rad)),)."""
 
     @property
     def flat(self) -> jax.Array:
@@ -175,6 +177,8 @@ class EvaderEnv:
     """The turn the action's range [-1, 1] spans, rad (``EvaderTrainCfg.turn_limit_rad``)."""
     action_frame: str = struct.field(pytree_node=False, default="heading")
     """What the turn is added to (``sim.behaviors.learned.ACTION_FRAMES``)."""
+    fov_rad: float = struct.field(pytree_node=False, default=FULL_VIEW_RAD)
+    """The evader's field of view (``sim.behaviors.learned.evader_features``)."""
 
     def reset(self, key: jax.Array) -> EvaderEnvState:
         ws = sim_env.reset(key, self.world)
@@ -224,7 +228,8 @@ class EvaderEnv:
         return kept, jnp.stack(commands)[index]
 
     def observe(self, state: EvaderEnvState) -> EvaderObs:
-        return EvaderObs(evader_features(state.world.target, state.world.robot, self.world))
+        ws = state.world
+        return EvaderObs(evader_features(ws.target, ws.robot, self.world, self.fov_rad))
 
     def step(self, state: EvaderEnvState, action: jax.Array):
         """Head ``action[0]`` rad (clipped to +-``turn_limit_rad``) off the action frame
@@ -265,9 +270,10 @@ class EvaderEnv:
 
     @property
     def observation_spec(self) -> Spec:
-        """``evader_features``, (EVADER_OBS_DIM,), unbounded."""
-        inf = jnp.full((EVADER_OBS_DIM,), jnp.inf)
-        return Spec((EVADER_OBS_DIM,), -inf, inf)
+        """``evader_features``, (len(feature_names(fov_rad)),), unbounded."""
+        dim = len(feature_names(self.fov_rad))
+        inf = jnp.full((dim,), jnp.inf)
+        return Spec((dim,), -inf, inf)
 
     @property
     def action_spec(self) -> Spec:
@@ -283,12 +289,14 @@ def evader_env(
     weights: tuple[float, ...] = (),
     turn_limit_rad: float = TURN_LIMIT_RAD,
     action_frame: str = "heading",
+    fov_rad: float = FULL_VIEW_RAD,
 ) -> EvaderEnv:
     """An ``EvaderEnv`` in ``world`` (its behaviour set to ``commanded``) against a pursuer
     or a list or tuple of them, one drawn per episode with ``weights`` (one per pursuer,
     normalised; empty: uniform), its action spanning turns of +-``turn_limit_rad`` off
-    ``action_frame``. Pursuers are policies built for that world
-    (``policies.registry.BASELINES[name](world)``) or trained runs' (``rl.policy.load_run``)."""
+    ``action_frame``, seeing the robot within ``fov_rad``. Pursuers are policies built for
+    that world (``policies.registry.BASELINES[name](world)``) or trained runs'
+    (``rl.policy.load_run``)."""
     pursuers = tuple(pursuers) if isinstance(pursuers, list | tuple) else (pursuers,)
     if not pursuers:
         raise ValueError("give the evader at least one pursuer")
@@ -305,6 +313,7 @@ def evader_env(
         raise ValueError(f"action frame {action_frame!r}: choose one of {', '.join(ACTION_FRAMES)}")
     if not turn_limit_rad > 0:
         raise ValueError(f"turn_limit_rad {turn_limit_rad}: give a positive turn range, rad")
+    check_fov(fov_rad)
     return EvaderEnv(
         world.with_behavior("commanded"),
         frozen,
@@ -312,4 +321,5 @@ def evader_env(
         weights,
         float(turn_limit_rad),
         action_frame,
+        float(fov_rad),
     )

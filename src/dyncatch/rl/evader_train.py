@@ -23,8 +23,13 @@ from dyncatch.rl.guard import check_finite
 from dyncatch.rl.logging import MetricLog
 from dyncatch.rl.policy import load_run
 from dyncatch.rl.train import TrainState, make_train
-from dyncatch.sim.behaviors.evader_net import EVADER_CHECKPOINT, EvaderNet, save_evader
-from dyncatch.sim.behaviors.learned import FEATURE_NAMES, TURN_LIMIT_RAD, ActionFrame
+from dyncatch.sim.behaviors.evader_net import (
+    EVADER_CHECKPOINT,
+    FULL_VIEW_RAD,
+    EvaderNet,
+    save_evader,
+)
+from dyncatch.sim.behaviors.learned import TURN_LIMIT_RAD, ActionFrame, check_fov, feature_names
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.validate import validate_world
 from dyncatch.utils.config_io import config_diff
@@ -77,6 +82,12 @@ class EvaderTrainCfg:
     alpha dodge within r_ev, the world's target.* fields), so the action is a correction to
     the scripted rule. Recorded in the file, so the deployed evader acts as in
     training."""
+    fov_rad: float = FULL_VIEW_RAD
+    """The evader's field of view, rad, its full angle centred on its heading (default 2 pi:
+    it sees the robot wherever it is). Narrower, the robot outside it reads as 0 and a last
+    input, robot_visible, says so (dyncatch.sim.behaviors.learned.evader_features; a
+    reading of the issue's "optionally only within its own field of view", no memory).
+    Recorded in the file, so the deployed evader sees as in training."""
     reward: EvaderRewardCfg = EvaderRewardCfg()
     """The evader's reward terms (dyncatch.rl.evader.EvaderRewardCfg)."""
     ppo: PPOCfg = EVADER_PPO
@@ -88,7 +99,7 @@ class EvaderTrainCfg:
 def evader_header(cfg: EvaderTrainCfg) -> dict:
     """What an evader checkpoint records beyond its architecture."""
     return {
-        "features": list(FEATURE_NAMES),
+        "features": list(feature_names(cfg.fov_rad)),
         "against": list(cfg.against),
         "against_weights": list(cfg.against_weights),
         "seed": cfg.seed,
@@ -104,9 +115,11 @@ def evader_net_of(
     header: dict,
     turn_limit_rad: float = TURN_LIMIT_RAD,
     action_frame: str = "heading",
+    fov_rad: float = FULL_VIEW_RAD,
 ) -> EvaderNet:
     """The actor and normaliser of a training state as a deployable ``EvaderNet`` whose
-    actions span turns of +-``turn_limit_rad`` from ``action_frame``."""
+    actions span turns of +-``turn_limit_rad`` from ``action_frame``, seeing within
+    ``fov_rad``."""
     actor = jax.device_get(ts.params["params"]["actor"])
     n = len(actor)
     layers = tuple(
@@ -121,6 +134,7 @@ def evader_net_of(
         {**header, "iteration": int(ts.iteration), "env_steps": int(ts.env_steps)},
         float(np.exp(np.asarray(ts.params["params"]["log_std"]))[0]),
         action_frame,
+        fov_rad,
     )
 
 
@@ -174,6 +188,7 @@ def _validate(cfg: EvaderTrainCfg) -> None:
         raise ValueError("--against-weights must be non-negative with a positive sum")
     if not cfg.turn_limit_rad > 0:
         raise ValueError(f"--turn-limit-rad {cfg.turn_limit_rad}: give a positive turn, rad")
+    check_fov(cfg.fov_rad, "--fov-rad")
     if cfg.total_steps < 1 or cfg.checkpoint_every < 1:
         raise ValueError("--total-steps and --checkpoint-every must be >= 1")
     validate_ppo(cfg.ppo)
@@ -208,7 +223,13 @@ def train_evader(cfg: EvaderTrainCfg, progress: Progress | None = None) -> dict[
         raise ValueError(f"{path} exists: choose another --out (evader runs do not resume)")
     pursuers = [load_pursuer(name, cfg.world) for name in cfg.against]
     env = evader_env(
-        cfg.world, pursuers, cfg.reward, cfg.against_weights, cfg.turn_limit_rad, cfg.action_frame
+        cfg.world,
+        pursuers,
+        cfg.reward,
+        cfg.against_weights,
+        cfg.turn_limit_rad,
+        cfg.action_frame,
+        cfg.fov_rad,
     )
     weights, skeleton = split_arrays(env)
     ts = evader_init(weights, jax.random.key(cfg.seed), skeleton, cfg.ppo)
@@ -229,7 +250,8 @@ def train_evader(cfg: EvaderTrainCfg, progress: Progress | None = None) -> dict[
             log.write(it + 1, int(ts.env_steps), metrics)
             update(it + 1, f"escaped {metrics['success_rate']:.2f}")
             if (it + 1) % cfg.checkpoint_every == 0 or it + 1 == total_iters:
-                save_evader(path, evader_net_of(ts, header, cfg.turn_limit_rad, cfg.action_frame))
+                net = evader_net_of(ts, header, cfg.turn_limit_rad, cfg.action_frame, cfg.fov_rad)
+                save_evader(path, net)
     finally:
         log.close()
     return metrics

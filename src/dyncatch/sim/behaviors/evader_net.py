@@ -12,7 +12,9 @@ is refused when it does not match the features this version computes.
 from __future__ import annotations
 
 import functools
+import math
 import os
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -27,6 +29,10 @@ EVADER_FORMAT = "dyncatch.evader/1"
 EVADER_CHECKPOINT = "evader.safetensors"
 """The checkpoint's name in an evader run folder (``dyncatch evader train --out DIR``)."""
 FLAG = "--world.target.evader-checkpoint"
+
+FULL_VIEW_RAD = 2 * math.pi
+"""An evader field of view of a whole turn: it sees the robot wherever it is (the default,
+and the reading of a file that records none)."""
 """The flag that names the file (``TargetCfg.evader_checkpoint``)."""
 NORM_CLIP = 10.0
 """Normalised inputs are clipped to +-this, as the trainer's ``rl.normalize.RunningNorm``."""
@@ -58,6 +64,9 @@ class EvaderNet:
     action_frame: str = "heading"
     """What the turn is added to (``sim.behaviors.learned.ACTION_FRAMES``): ``heading``, the
     target's own heading, in a file that does not record it."""
+    fov_rad: float = FULL_VIEW_RAD
+    """The evader's field of view, its full angle centred on its heading
+    (``sim.behaviors.learned.evader_features``); a whole turn in a file that records none."""
 
     def action_mean(self, features: jax.Array) -> jax.Array:
         """The actor's mean action, (), from the features (D,), normalised and clipped as
@@ -100,6 +109,7 @@ def save_evader(path: str | os.PathLike, net: EvaderNet) -> Path:
         "turn_limit_rad": float(net.turn_limit_rad),
         "action_std": None if net.action_std is None else float(net.action_std),
         "action_frame": net.action_frame,
+        "fov_rad": float(net.fov_rad),
     }
     tree = actor_tree(
         [(np.asarray(k, np.float32), np.asarray(b, np.float32)) for k, b in net.layers],
@@ -116,10 +126,11 @@ def _bad(path: str, why: str) -> EvaderCheckpointError:
     )
 
 
-def load_evader(path: str, feature_names: tuple[str, ...]) -> EvaderNet:
+def load_evader(path: str, feature_names: Callable[[float], tuple[str, ...]]) -> EvaderNet:
     """The evader network in ``path`` (cached per file and its modification time), checked
-    against ``feature_names``, the features this version computes; EvaderCheckpointError
-    naming the flag for an empty path, a missing, damaged or mismatched file."""
+    against ``feature_names(fov_rad)``, the features this version computes for the file's
+    field of view; EvaderCheckpointError naming the flag for an empty path, a missing,
+    damaged or mismatched file."""
     if not path:
         raise _bad(path, "is empty, and the learned behaviour runs a trained evader")
     p = Path(path)
@@ -133,7 +144,7 @@ def load_evader(path: str, feature_names: tuple[str, ...]) -> EvaderNet:
 
 
 @functools.lru_cache(maxsize=16)
-def _load_cached(path: str, mtime_ns: int, size: int, feature_names: tuple[str, ...]):
+def _load_cached(path: str, mtime_ns: int, size: int, names_of: Callable[[float], tuple]):
     del mtime_ns, size  # part of the key only: a rewritten file is read again
     try:
         header = read_header(path)
@@ -141,6 +152,11 @@ def _load_cached(path: str, mtime_ns: int, size: int, feature_names: tuple[str, 
         raise _bad(path, f"not an evader checkpoint or damaged ({err})") from None
     if header.get("format") != EVADER_FORMAT:
         raise _bad(path, f"format {header.get('format')!r}, expected {EVADER_FORMAT!r}")
+    try:
+        fov_rad = float(header.get("fov_rad", FULL_VIEW_RAD))
+    except (TypeError, ValueError):
+        raise _bad(path, f"its field of view {header.get('fov_rad')!r} is no angle") from None
+    feature_names = names_of(fov_rad)
     if tuple(header.get("features", ())) != feature_names:
         raise _bad(
             path,
@@ -181,4 +197,5 @@ def _load_cached(path: str, mtime_ns: int, size: int, feature_names: tuple[str, 
         header,
         None if header.get("action_std") is None else float(header["action_std"]),
         str(header.get("action_frame", "heading")),
+        fov_rad,
     )

@@ -7,7 +7,9 @@ angle; the desired heading is its action frame (``ACTION_FRAMES``: its own headi
 default, the flee direction, or the eq. 11-12 heading) plus it, and the body then turns toward it
 under the turn-rate limit and runs at the episode's speed cap, exactly as the scripted
 targets do (``sim.target.steer``). Speed is not the evader's to choose: it always runs at its
-cap (a reading; the issue allows any speed up to the cap, which is not built).
+cap (a reading; the issue allows any speed up to the cap, which is not built). Its view is
+a whole turn by default, or a field of view centred on its heading (``evader_features``'
+``fov_rad``, recorded in the evader's file).
 
 ``learned`` evaluates the frozen actor in ``target.evader_checkpoint`` deterministically
 (its mean turn; ``target.evader_sample`` draws around it as in training); ``commanded``
@@ -24,7 +26,12 @@ import jax.numpy as jnp
 from flax import struct
 
 from dyncatch.sim.behaviors.base import Behavior, Check, uniform_init
-from dyncatch.sim.behaviors.evader_net import EvaderCheckpointError, EvaderNet, load_evader
+from dyncatch.sim.behaviors.evader_net import (
+    FULL_VIEW_RAD,
+    EvaderCheckpointError,
+    EvaderNet,
+    load_evader,
+)
 from dyncatch.sim.behaviors.reactive import flee_and_dodge
 from dyncatch.sim.fields import static
 from dyncatch.sim.geometry import rotate, world_to_body, wrap_angle
@@ -48,6 +55,25 @@ FEATURE_NAMES = (
 )
 """The evader's observation, in order (``evader_features``)."""
 EVADER_OBS_DIM = len(FEATURE_NAMES)
+FOV_FEATURE_NAMES = (*FEATURE_NAMES, "robot_visible")
+"""The observation of an evader with a field of view narrower than a whole turn: the same,
+then whether the robot is inside it (1) or not (0)."""
+
+
+def feature_names(fov_rad: float = FULL_VIEW_RAD) -> tuple[str, ...]:
+    """The names of ``evader_features`` at field of view ``fov_rad``."""
+    return FEATURE_NAMES if fov_rad >= FULL_VIEW_RAD else FOV_FEATURE_NAMES
+
+
+def check_fov(fov_rad: float, flag: str = "fov_rad") -> None:
+    """ValueError naming ``flag`` unless 0 < ``fov_rad`` <= a whole turn."""
+    if not 0.0 < fov_rad <= FULL_VIEW_RAD:
+        raise ValueError(
+            f"{flag} {fov_rad}: give the evader's field of view in (0, 2 pi] rad "
+            f"(2 pi = {FULL_VIEW_RAD:.6f}, the default, sees everywhere)"
+        )
+
+
 TURN_LIMIT_RAD = math.pi
 """The default range of the evader's action, an angle in [-pi, pi] from its action frame
 (``ACTION_FRAMES``) per control step (the body's turn-rate limit then clips what it can do
@@ -123,8 +149,10 @@ def evader_init(key: jax.Array, cfg: WorldCfg) -> tuple[jax.Array, jax.Array, Ev
     return xy, heading, EvaderState(jnp.zeros(()), jnp.zeros(2))
 
 
-def evader_features(target: TargetState, robot: RobotState, cfg: WorldCfg) -> jax.Array:
-    """What the evader sees, (EVADER_OBS_DIM,), named in ``FEATURE_NAMES``:
+def evader_features(
+    target: TargetState, robot: RobotState, cfg: WorldCfg, fov_rad: float = FULL_VIEW_RAD
+) -> jax.Array:
+    """What the evader sees, named in ``feature_names(fov_rad)``:
 
     - the robot's position relative to the target, m, in the target's heading frame
       (forward, left);
@@ -135,7 +163,12 @@ def evader_features(target: TargetState, robot: RobotState, cfg: WorldCfg) -> ja
     - cos and sin of its heading in the square's frame (which way the walls lie ahead).
 
     Obstacles are not observed (in the rooms and the woods the world's free-direction rule
-    still turns every non-reflecting target away from them)."""
+    still turns every non-reflecting target away from them).
+
+    With ``fov_rad`` below a whole turn (a reading of "optionally only within its own field
+    of view": a cone of that full angle centred on the target's heading, any range, no
+    memory), the robot outside the cone reads as 0 in the four relative features, and a last
+    feature says whether it is inside (1) or not (0)."""
     state: EvaderState = target.behavior_state
     rel = world_to_body(robot.xy_m - target.xy_m, target.heading_rad)
     robot_vel = rotate(robot.vel_body_mps, robot.yaw_rad)
@@ -143,20 +176,20 @@ def evader_features(target: TargetState, robot: RobotState, cfg: WorldCfg) -> ja
     p = target.xy_m - state.corner_xy_m
     size = cfg.arena.size_m
     walls = jnp.stack([p[0], size - p[0], p[1], size - p[1]])
+    heading = jnp.stack([jnp.cos(target.heading_rad), jnp.sin(target.heading_rad)])
+    if fov_rad >= FULL_VIEW_RAD:
+        return jnp.concatenate([rel, rel_vel, target.speed_mps[None], walls, heading])
+    visible = jnp.abs(jnp.arctan2(rel[1], rel[0])) <= 0.5 * fov_rad
+    seen = lambda x: jnp.where(visible, x, 0.0)  # noqa: E731
     return jnp.concatenate(
-        [
-            rel,
-            rel_vel,
-            target.speed_mps[None],
-            walls,
-            jnp.stack([jnp.cos(target.heading_rad), jnp.sin(target.heading_rad)]),
-        ]
-    )
+        [seen(rel), seen(rel_vel), target.speed_mps[None], walls, heading,
+         visible.astype(rel.dtype)[None]]
+    )  # fmt: skip
 
 
 def evader_net(cfg: WorldCfg) -> EvaderNet:
     """The network of ``cfg.target.evader_checkpoint`` (cached per file)."""
-    return load_evader(cfg.target.evader_checkpoint, FEATURE_NAMES)
+    return load_evader(cfg.target.evader_checkpoint, feature_names)
 
 
 def learned_heading(
@@ -166,7 +199,7 @@ def learned_heading(
     it with ``key`` where ``target.evader_sample``, added to its action frame (the file's
     ``action_frame``: the current heading or the flee direction)."""
     net = evader_net(cfg)
-    action = net.action_mean(evader_features(target, robot, cfg))
+    action = net.action_mean(evader_features(target, robot, cfg, net.fov_rad))
     if cfg.target.evader_sample:
         action = action + net.action_std * jax.random.normal(key, ())
     turn = turn_of(net.turn(action), target, robot, net.action_frame, cfg)
