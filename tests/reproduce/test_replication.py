@@ -123,3 +123,31 @@ def test_a_set_trained_in_parts_merges_into_the_set_it_would_have_been():
     assert p3["sets"] == ["0-9", "10-14", "15-19"]
     with pytest.raises(ValueError, match="share seeds"):
         merged(halves[0], halves[0])
+
+
+def test_a_part_of_the_plan_compares_and_pools_on_its_behaviours_endpoints():
+    """A second set run as the reactive part of the plan (``--part reactive``) is judged
+    against the first on the reactive endpoint alone; another plan is still refused."""
+    import dataclasses
+
+    import numpy as np
+
+    from dyncatch.reproduce.parts import part_plan
+    from dyncatch.reproduce.plan import PROFILES
+    from dyncatch.reproduce.replication import pooled
+
+    whole = dataclasses.replace(PROFILES["power"], seeds=10)
+    part = dataclasses.replace(part_plan(whole, "reactive"), seeds=5, first_seed=10)
+    rng = np.random.default_rng(2)
+    s, r = (rng.uniform(lo, 1.0, 15).round(3).tolist() for lo in (0.7, 0.2))
+    a = _with_cells(_results(0, 0.1, 0.0, 0.2, "resolved"), s[:10], r[:10])
+    b = _with_cells(_results(10, 0.1, 0.01, 0.2, "resolved"), s[10:], r[10:])
+    a["plan"], b["plan"] = whole.to_json(), {**part.to_json(), "vmap_seeds": True}
+    [row] = compare(a, b)
+    assert row["behavior"] == "reactive" and row["sets"] == ["0-9", "10-14"] and row["agree"]
+    [p] = pooled(a, b)
+    assert p["behavior"] == "reactive" and p["seeds"] == [15, 15]
+    assert p["difference"] == pytest.approx(np.mean(s) - np.mean(r))
+    b["plan"]["episodes"] = 1000
+    with pytest.raises(ValueError, match="different plans"):
+        compare(a, b)

@@ -20,8 +20,7 @@ import shutil
 from collections.abc import Sequence
 from pathlib import Path
 
-from dyncatch.reproduce.plan import Plan
-from dyncatch.reproduce.replication import ROUNDING_ONLY
+from dyncatch.reproduce.plan import ROUNDING_ONLY, Plan
 from dyncatch.utils.config_io import config_diff
 from dyncatch.utils.files import read_json, write_json
 

@@ -232,6 +232,11 @@ class Plan:
         return d
 
 
+ROUNDING_ONLY = ("vmap_seeds",)
+"""Plan fields that move results by float rounding only: seeds trained as one vmap-ped
+computation or one by one (docs/scaling.md, "Seeds in one jit": parameters equal to float
+tolerance). Two seed sets, or two parts of one plan, may differ in them."""
+
 NOT_RECORDED = (
     "out",
     "executor",

@@ -12,13 +12,17 @@ one set's seeds are too few for it. ``merged`` makes one set of several runs of 
 disjoint seeds (a seed set trained in parts), to be compared as one.
 
 Plans must be equal but for their seeds and ``ROUNDING_ONLY``: fields that change results
-by float rounding alone, which a replication may differ in (and says so).
+by float rounding alone, which a replication may differ in (and says so). One set may also
+be a part of the other's plan (``dyncatch reproduce --part``, ``reproduce.parts``): the same
+plan kept to one trained behaviour, compared and pooled on that behaviour's endpoints.
 """
 
 from __future__ import annotations
 
 from dyncatch.reproduce.aggregate import gap, judge_family
 from dyncatch.reproduce.endpoints import Endpoint
+from dyncatch.reproduce.plan import ROUNDING_ONLY, Plan
+from dyncatch.utils.config_io import from_dict
 
 
 def _key(row: dict) -> tuple:
@@ -27,12 +31,6 @@ def _key(row: dict) -> tuple:
 
 def _outcome(row: dict) -> str:
     return row["resolution"] + (f" ({row['verdict']})" if row["resolution"] == "resolved" else "")
-
-
-ROUNDING_ONLY = ("vmap_seeds",)
-"""Plan fields that move results by float rounding only: seeds trained as one vmap-ped
-computation or one by one (docs/scaling.md, "Seeds in one jit": parameters equal to float
-tolerance)."""
 
 
 def _plan_and_seeds(results: dict) -> tuple[dict, set[int]]:
@@ -63,12 +61,31 @@ def rounding_only_differences(a: dict, b: dict) -> list[str]:
     ]
 
 
+def _is_part(whole: dict, part: dict) -> bool:
+    """Whether the plan record ``part`` (seeds and rounding-only fields left out) is one
+    part of the plan record ``whole`` (``parts.part_plan``)."""
+    from dyncatch.reproduce.parts import part_plan
+
+    try:
+        plan = from_dict(Plan, whole)
+    except (TypeError, ValueError, KeyError):
+        return False
+    for behavior in plan.behaviors:
+        candidate = dict(part_plan(plan, behavior).to_json())
+        for k in ("seeds", "first_seed", "seed_list", *ROUNDING_ONLY):
+            candidate.pop(k, None)
+        if candidate == part:
+            return True
+    return False
+
+
 def compare(a: dict, b: dict) -> list[dict]:
     """One row per primary endpoint measured by both ``results.json`` contents: each set's
     difference, interval and outcome, and whether they agree. Refuses two runs of different
-    plans or of overlapping seeds, which would not be a replication."""
+    plans (unless one is a part of the other's) or of overlapping seeds, which would not be
+    a replication."""
     (pa, seeds_a), (pb, seeds_b) = _plan_and_seeds(a), _plan_and_seeds(b)
-    if pa != pb:
+    if pa != pb and not (_is_part(pa, pb) or _is_part(pb, pa)):
         differ = sorted(k for k in pa.keys() | pb.keys() if pa.get(k) != pb.get(k))
         raise ValueError(f"the two runs have different plans ({', '.join(differ[:4])}): "
                          "a replication repeats one plan with other seeds")  # fmt: skip
@@ -127,12 +144,21 @@ def _check_sets(sets: tuple[dict, ...]) -> None:
             compare(a, b)
 
 
-def _pooled_rows(sets: tuple[dict, ...]) -> list[dict]:
+def _pooled_rows(sets: tuple[dict, ...], in_every_set: bool) -> list[dict]:
+    """Each primary ordering endpoint judged on the seeds of ``sets`` together; with
+    ``in_every_set``, only those every set measured (a part measures its behaviour's
+    alone), else those any set did (the parts of one set)."""
     cells = [c for r in sets for c in r["table_i"]["cells"]]
     endpoints = [Endpoint.from_json(e) for e in sets[0]["plan"]["primary_endpoints"]]
     out = []
     for e in endpoints:
         if e.claim is None:
+            continue
+        if in_every_set and any(
+            _merged_cell(r["table_i"]["cells"], m, e.behavior, e.speed_mps) is None
+            for r in sets
+            for m in e.claim
+        ):
             continue
         winner, loser = (_merged_cell(cells, m, e.behavior, e.speed_mps) for m in e.claim)
         if winner is None or loser is None:
@@ -151,11 +177,12 @@ def _pooled_rows(sets: tuple[dict, ...]) -> list[dict]:
 
 
 def pooled(*sets: dict) -> list[dict]:
-    """Each primary ordering endpoint of the plan judged on the seeds of every set
-    together (``compare`` checks first that each two are one plan on disjoint seeds). A
-    headroom endpoint is left out: its rival, the best non-oracle method, is chosen per run."""
+    """Each primary ordering endpoint that every set measured, judged on the seeds of all
+    of them together (``compare`` checks first that each two are one plan, or a part of it,
+    on disjoint seeds). A headroom endpoint is left out: its rival, the best non-oracle
+    method, is chosen per run."""
     _check_sets(sets)
-    return _pooled_rows(sets)
+    return _pooled_rows(sets, in_every_set=True)
 
 
 def merged(*parts: dict) -> dict:
@@ -171,7 +198,7 @@ def merged(*parts: dict) -> dict:
         "plan": plan,
         "merged_from": [_seeds(r) for r in parts],
         "table_i": {"cells": [c for r in parts for c in r["table_i"]["cells"]]},
-        "primary_endpoints": {"measured": _pooled_rows(parts)},
+        "primary_endpoints": {"measured": _pooled_rows(parts, in_every_set=False)},
     }
 
 
