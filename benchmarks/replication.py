@@ -55,8 +55,15 @@ def run(argv: list[str] | None = None) -> int:
         table += (
             "\n\nThe sets' plans differ only in fields that move results by float rounding: "
             + "; ".join(notes)
-            + " (dyncatch.reproduce.replication.ROUNDING_ONLY)."
+            + " (dyncatch.reproduce.plan.ROUNDING_ONLY)."
         )
+    for name, r, other in (("first", a, b), ("second", b, a)):
+        if len(r["plan"]["behaviors"]) < len(other["plan"]["behaviors"]):
+            table += (
+                f"\n\nThe {name} set ran part of the plan, behaviours "
+                f"{', '.join(r['plan']['behaviors'])} (dyncatch reproduce --part): only "
+                "their endpoints are compared and pooled."
+            )
     if len(parts) > 1:
         table += (
             f"\n\nThe second set was trained in {len(parts)} parts, each with its own "
