@@ -38,18 +38,23 @@ def test_non_finite_parts_by_seed_equals_the_check_of_each_seed():
     assert group == one_by_one == [[], ["parameters"], ["observation normaliser", "loss"]]
 
 
-def test_training_stops_at_the_first_nan_and_keeps_the_last_good_checkpoint(tmp_path):
-    cfg = TrainRunCfg(
+def _five_iterations(out, seeds: int = 1) -> TrainRunCfg:
+    """Five tiny iterations, a checkpoint after each, CSV logs in ``out``."""
+    return TrainRunCfg(
         method="rl",
         total_steps=5 * PPO.batch_size,
         checkpoint_every=1,
         eval_every=0,
         logger=("csv",),
-        out=tmp_path,
+        out=out,
         ppo=PPO,
         world=WorldCfg().with_behavior("bounce"),
+        seeds=seeds,
     )
-    runner = TrainRunner(cfg)
+
+
+def test_training_stops_at_the_first_nan_and_keeps_the_last_good_checkpoint(tmp_path):
+    runner = TrainRunner(_five_iterations(tmp_path))
     iterate = runner._iterate
 
     def poisoned(ts):  # the third iteration's update turns one weight into NaN
@@ -74,18 +79,7 @@ def test_a_seed_group_stops_at_one_seeds_nan_and_names_its_checkpoint(tmp_path):
     from dyncatch.rl.runner import seed_cfgs
     from dyncatch.rl.seeds import SeedGroupRunner
 
-    cfg = TrainRunCfg(
-        method="rl",
-        total_steps=5 * PPO.batch_size,
-        checkpoint_every=1,
-        eval_every=0,
-        logger=("csv",),
-        out=tmp_path,
-        ppo=PPO,
-        world=WorldCfg().with_behavior("bounce"),
-        seeds=2,
-    )
-    group = SeedGroupRunner(seed_cfgs(cfg))
+    group = SeedGroupRunner(seed_cfgs(_five_iterations(tmp_path, seeds=2)))
     viterate = group._viterate
 
     def poisoned(ts):  # the third iteration's update turns one weight of seed 1 into NaN
