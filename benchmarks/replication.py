@@ -4,8 +4,9 @@
     .venv/bin/dyncatch reproduce --power --first-seed 30 --out results/power_b
     .venv/bin/python benchmarks/replication.py results/power_a results/power_b
 
-A second set trained in parts (``--seeds 15 --first-seed 30``, then ``--first-seed 45``)
-is named part by part: ``replication.py A B1 B2`` compares A with B1 and B2 merged
+A second set trained in seed ranges (``--seeds 15 --first-seed 30``, then ``--first-seed
+45``; each range's behaviour parts merged by ``dyncatch reproduce --merge-parts`` first) is
+named range by range: ``replication.py A B1 B2`` compares A with B1 and B2 merged
 (``replication.merged``). Prints the tables of ``dyncatch.reproduce.replication`` (each
 set's primary endpoints side by side, then both sets' seeds pooled) and writes them as
 ``replication.md``/``.json`` beside the last folder's report.

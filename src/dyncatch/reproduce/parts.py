@@ -21,6 +21,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from dyncatch.reproduce.plan import ROUNDING_ONLY, Plan
+from dyncatch.reproduce.stages import stages_of
 from dyncatch.utils.config_io import config_diff
 from dyncatch.utils.files import read_json, write_json
 
@@ -173,6 +174,4 @@ def merge(plan: Plan, folders: Sequence[Path], out: Path) -> dict:
 def unfinished_jobs(plan: Plan, out: Path) -> list[str]:
     """The names of the jobs the whole plan would still run in ``out`` (after a merge:
     none, or the parts were not this plan's)."""
-    from dyncatch.reproduce.stages import stages_of
-
     return [job.name for stage in stages_of(plan) for job in stage.jobs(plan, out)]

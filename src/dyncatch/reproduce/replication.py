@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from dyncatch.reproduce.aggregate import gap, judge_family
 from dyncatch.reproduce.endpoints import Endpoint
+from dyncatch.reproduce.parts import part_plan
 from dyncatch.reproduce.plan import ROUNDING_ONLY, Plan
 from dyncatch.utils.config_io import from_dict
 
@@ -62,21 +63,15 @@ def rounding_only_differences(a: dict, b: dict) -> list[str]:
 
 
 def _is_part(whole: dict, part: dict) -> bool:
-    """Whether the plan record ``part`` (seeds and rounding-only fields left out) is one
-    part of the plan record ``whole`` (``parts.part_plan``)."""
-    from dyncatch.reproduce.parts import part_plan
-
+    """Whether the plan record ``part`` is one part of the plan record ``whole``
+    (``parts.part_plan``), both as ``_plan_and_seeds`` leaves them."""
     try:
         plan = from_dict(Plan, whole)
     except (TypeError, ValueError, KeyError):
         return False
-    for behavior in plan.behaviors:
-        candidate = dict(part_plan(plan, behavior).to_json())
-        for k in ("seeds", "first_seed", "seed_list", *ROUNDING_ONLY):
-            candidate.pop(k, None)
-        if candidate == part:
-            return True
-    return False
+    return any(
+        _plan_and_seeds({"plan": part_plan(plan, b).to_json()})[0] == part for b in plan.behaviors
+    )
 
 
 def compare(a: dict, b: dict) -> list[dict]:
@@ -186,8 +181,9 @@ def pooled(*sets: dict) -> list[dict]:
 
 
 def merged(*parts: dict) -> dict:
-    """One seed set of several runs of one plan on disjoint seeds (a set trained in parts,
-    each ``--seeds k --first-seed s``): its plan lists the seeds, its Table I cells hold
+    """One seed set of several runs of one plan on disjoint seeds (a set trained in seed
+    ranges, each ``--seeds k --first-seed s``; behaviour parts, ``--part``, are merged by
+    ``dyncatch reproduce --merge-parts`` first): its plan lists the seeds, its Table I cells hold
     every part's seeds and its primary endpoints are judged on them (as ``pooled``), so
     ``compare`` and ``pooled`` read it as one set. Each part trained its own predictors
     (seeded with its first seed), where one run trains one: say so where it is reported."""
