@@ -223,7 +223,7 @@ def _episode(key, world):
     return jax.lax.scan(body, s, jax.random.split(key, 100))[1]
 
 
-def test_cli_trains(tmp_path):
+def test_cli_trains_an_evader_with_a_speed_action(tmp_path):
     out = tmp_path / "run"
     rc = main(
         [
@@ -239,9 +239,30 @@ def test_cli_trains(tmp_path):
             "16",
             "--ppo.hidden-sizes",
             "8",
+            "--speed-action",
         ]
     )
     assert rc == 0 and (out / EVADER_CHECKPOINT).exists() and (out / "metrics.csv").exists()
+    world = WorldCfg().with_behavior("learned")
+    world = validate_world(world.replace(target=world.target.replace(evader_checkpoint=str(out))))
+    net = evader_net(world)
+    assert net.speed_action and net.speed_action_std > 0 and net.layers[-1][0].shape == (8, 2)
+    assert net.header["features"][-1] == "speed_cap_mps"
+
+
+def test_an_exported_speed_action_is_the_trainers():
+    env = evader_env(WORLD, pursuit_policy(WORLD), speed_action=True)
+    init, _, net = make_train(env, TINY)
+    ts = jax.jit(init)(jax.random.key(1))
+    exported = evader_net_of(ts, {}, speed_action=True)
+    x = jax.random.normal(jax.random.key(2), (16, EVADER_OBS_DIM + 1)) * 3.0
+    mean, _, _ = net.apply(ts.params, ts.norm(x))
+    want = jax.vmap(lambda m: to_command(m, env))(mean)
+    got = jax.vmap(exported.action_mean)(x)
+    np.testing.assert_allclose(got[:, 0] * math.pi, want[:, 0], rtol=1e-5, atol=1e-5)
+    np.testing.assert_allclose(jnp.clip(got[:, 1], -1, 1), want[:, 1], rtol=1e-5, atol=1e-5)
+    std = np.exp(np.asarray(ts.params["params"]["log_std"]))
+    assert (exported.action_std, exported.speed_action_std) == pytest.approx(tuple(std))
 
 
 def test_an_evader_with_a_field_of_view_observes_whether_it_sees_the_robot():

@@ -37,7 +37,7 @@ def _bodies(target_xy, heading, speed, robot_xy, robot_yaw=0.0, robot_vel=(0.0, 
         heading_rad=f(heading),
         speed_mps=f(speed),
         speed_cap_mps=f(speed),
-        behavior_state=EvaderState(f(0.0), f((0.0, 0.0))),
+        behavior_state=EvaderState(f(0.0), f((0.0, 0.0)), f(1.0)),
     )
     robot = RobotState(
         xy_m=f(robot_xy),

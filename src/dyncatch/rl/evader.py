@@ -3,7 +3,8 @@
 ``EvaderEnv`` implements the environment protocol (``dyncatch.sim.api``), so the PPO of
 ``rl.train.make_train`` trains the target unchanged. Its world runs the ``commanded``
 behaviour: each ``step`` writes the evader's turn (the heading change its action asks for
-from its action frame, ``sim.behaviors.learned.ACTION_FRAMES``) into the
+from its action frame, ``sim.behaviors.learned.ACTION_FRAMES``), and with a speed action
+its share of the speed cap (``sim.behaviors.learned.speed_share_of``), into the
 target's behaviour state, asks the frozen pursuer (any policy of ``policies.api``, run
 through ``as_recurrent``) for the base command, and steps the world once. The evader
 observes ``sim.behaviors.learned.evader_features``, the function the deployed ``learned``
@@ -35,6 +36,7 @@ from dyncatch.sim.behaviors.learned import (
     check_fov,
     evader_features,
     feature_names,
+    speed_share_of,
     turn_of,
 )
 from dyncatch.sim.config import WorldCfg
@@ -66,7 +68,7 @@ class EvaderObs:
     """The evader's observation; ``flat`` is the network view (``rl.train.flat_obs``)."""
 
     features: jax.Array
-    """``evader_features``, (len(feature_names(fov_rad)),)."""
+    """``evader_features``, (len(feature_names(fov_rad, speed_action)),)."""
 
     @property
     def flat(self) -> jax.Array:
@@ -179,6 +181,9 @@ class EvaderEnv:
     """What the turn is added to (``sim.behaviors.learned.ACTION_FRAMES``)."""
     fov_rad: float = struct.field(pytree_node=False, default=FULL_VIEW_RAD)
     """The evader's field of view (``sim.behaviors.learned.evader_features``)."""
+    speed_action: bool = struct.field(pytree_node=False, default=False)
+    """A second action picks the share of the speed cap (``speed_share_of``); False: the
+    evader runs at the cap."""
 
     def reset(self, key: jax.Array) -> EvaderEnvState:
         ws = sim_env.reset(key, self.world)
@@ -229,17 +234,22 @@ class EvaderEnv:
 
     def observe(self, state: EvaderEnvState) -> EvaderObs:
         ws = state.world
-        return EvaderObs(evader_features(ws.target, ws.robot, self.world, self.fov_rad))
+        return EvaderObs(
+            evader_features(ws.target, ws.robot, self.world, self.fov_rad, self.speed_action)
+        )
 
     def step(self, state: EvaderEnvState, action: jax.Array):
-        """Head ``action[0]`` rad (clipped to +-``turn_limit_rad``) off the action frame
-        while the pursuer acts; returns (state, obs, reward, done, info); info's
+        """Head ``action[0]`` rad (clipped to +-``turn_limit_rad``) off the action frame,
+        and with ``speed_action`` run at ``speed_share_of(action[1])`` of the cap, while the
+        pursuer acts; returns (state, obs, reward, done, info); info's
         ``success`` is the evader's (the episode ran out uncaught), ``terminated`` the
         catch."""
         turn = jnp.clip(action[0], -self.turn_limit_rad, self.turn_limit_rad)
         ws = state.world
         turn = turn_of(turn, ws.target, ws.robot, self.action_frame, self.world)
         behavior_state = ws.target.behavior_state.replace(turn_rad=turn)
+        if self.speed_action:
+            behavior_state = behavior_state.replace(speed_share=speed_share_of(action[1]))
         ws = ws.replace(target=ws.target.replace(behavior_state=behavior_state))
         key = jax.random.fold_in(ws.key, PURSUER_STREAM)
         carries, command = self._pursue(state, ws, key)
@@ -270,16 +280,19 @@ class EvaderEnv:
 
     @property
     def observation_spec(self) -> Spec:
-        """``evader_features``, (len(feature_names(fov_rad)),), unbounded."""
-        dim = len(feature_names(self.fov_rad))
+        """``evader_features``, (len(feature_names(fov_rad, speed_action)),), unbounded."""
+        dim = len(feature_names(self.fov_rad, self.speed_action))
         inf = jnp.full((dim,), jnp.inf)
         return Spec((dim,), -inf, inf)
 
     @property
     def action_spec(self) -> Spec:
-        """The turn, rad, (1,), within +-``turn_limit_rad``."""
+        """The turn, rad, within +-``turn_limit_rad``, (1,); with ``speed_action`` then the
+        speed action in [-1, 1] (``speed_share_of``), (2,)."""
         limit = self.turn_limit_rad
-        return Spec((1,), jnp.full((1,), -limit), jnp.full((1,), limit))
+        if not self.speed_action:
+            return Spec((1,), jnp.full((1,), -limit), jnp.full((1,), limit))
+        return Spec((2,), jnp.asarray([-limit, -1.0]), jnp.asarray([limit, 1.0]))
 
 
 def evader_env(
@@ -290,11 +303,13 @@ def evader_env(
     turn_limit_rad: float = TURN_LIMIT_RAD,
     action_frame: str = "heading",
     fov_rad: float = FULL_VIEW_RAD,
+    speed_action: bool = False,
 ) -> EvaderEnv:
     """An ``EvaderEnv`` in ``world`` (its behaviour set to ``commanded``) against a pursuer
     or a list or tuple of them, one drawn per episode with ``weights`` (one per pursuer,
     normalised; empty: uniform), its action spanning turns of +-``turn_limit_rad`` off
-    ``action_frame``, seeing the robot within ``fov_rad``. Pursuers are policies built for
+    ``action_frame``, seeing the robot within ``fov_rad``, picking its speed too with
+    ``speed_action``. Pursuers are policies built for
     that world (``policies.registry.BASELINES[name](world)``) or trained runs'
     (``rl.policy.load_run``)."""
     pursuers = tuple(pursuers) if isinstance(pursuers, list | tuple) else (pursuers,)
@@ -322,4 +337,5 @@ def evader_env(
         float(turn_limit_rad),
         action_frame,
         float(fov_rad),
+        bool(speed_action),
     )

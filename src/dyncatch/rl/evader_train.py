@@ -88,6 +88,12 @@ class EvaderTrainCfg:
     input, robot_visible, says so (dyncatch.sim.behaviors.learned.evader_features; a
     reading of the issue's "optionally only within its own field of view", no memory).
     Recorded in the file, so the deployed evader sees as in training."""
+    speed_action: bool = False
+    """Also pick the speed, up to the episode's cap, with a second action a in [-1, 1]: the
+    share of the cap is clip(1 + a, 0, 1) (dyncatch.sim.behaviors.learned.speed_share_of; a
+    reading: an untrained policy's mean, 0, runs at the cap as the scripted targets do), and
+    the cap becomes an input (speed_cap_mps). Default off: the evader runs at its cap.
+    Recorded in the file, so the deployed evader acts as in training."""
     reward: EvaderRewardCfg = EvaderRewardCfg()
     """The evader's reward terms (dyncatch.rl.evader.EvaderRewardCfg)."""
     ppo: PPOCfg = EVADER_PPO
@@ -99,7 +105,7 @@ class EvaderTrainCfg:
 def evader_header(cfg: EvaderTrainCfg) -> dict:
     """What an evader checkpoint records beyond its architecture."""
     return {
-        "features": list(feature_names(cfg.fov_rad)),
+        "features": list(feature_names(cfg.fov_rad, cfg.speed_action)),
         "against": list(cfg.against),
         "against_weights": list(cfg.against_weights),
         "seed": cfg.seed,
@@ -116,12 +122,14 @@ def evader_net_of(
     turn_limit_rad: float = TURN_LIMIT_RAD,
     action_frame: str = "heading",
     fov_rad: float = FULL_VIEW_RAD,
+    speed_action: bool = False,
 ) -> EvaderNet:
     """The actor and normaliser of a training state as a deployable ``EvaderNet`` whose
-    actions span turns of +-``turn_limit_rad`` from ``action_frame``, seeing within
-    ``fov_rad``."""
+    actions span turns of +-``turn_limit_rad`` from ``action_frame`` (and the speed, with
+    ``speed_action``), seeing within ``fov_rad``."""
     actor = jax.device_get(ts.params["params"]["actor"])
     n = len(actor)
+    std = np.exp(np.asarray(jax.device_get(ts.params["params"]["log_std"])))
     layers = tuple(
         (np.asarray(actor[f"Dense_{i}"]["kernel"]), np.asarray(actor[f"Dense_{i}"]["bias"]))
         for i in range(n)
@@ -132,9 +140,11 @@ def evader_net_of(
         np.asarray(ts.norm.std),
         turn_limit_rad,
         {**header, "iteration": int(ts.iteration), "env_steps": int(ts.env_steps)},
-        float(np.exp(np.asarray(ts.params["params"]["log_std"]))[0]),
+        float(std[0]),
         action_frame,
         fov_rad,
+        speed_action,
+        float(std[1]) if speed_action else None,
     )
 
 
@@ -230,6 +240,7 @@ def train_evader(cfg: EvaderTrainCfg, progress: Progress | None = None) -> dict[
         cfg.turn_limit_rad,
         cfg.action_frame,
         cfg.fov_rad,
+        cfg.speed_action,
     )
     weights, skeleton = split_arrays(env)
     ts = evader_init(weights, jax.random.key(cfg.seed), skeleton, cfg.ppo)
@@ -250,7 +261,9 @@ def train_evader(cfg: EvaderTrainCfg, progress: Progress | None = None) -> dict[
             log.write(it + 1, int(ts.env_steps), metrics)
             update(it + 1, f"escaped {metrics['success_rate']:.2f}")
             if (it + 1) % cfg.checkpoint_every == 0 or it + 1 == total_iters:
-                net = evader_net_of(ts, header, cfg.turn_limit_rad, cfg.action_frame, cfg.fov_rad)
+                net = evader_net_of(
+                    ts, header, cfg.turn_limit_rad, cfg.action_frame, cfg.fov_rad, cfg.speed_action
+                )
                 save_evader(path, net)
     finally:
         log.close()

@@ -202,8 +202,9 @@ def turn_target(
             cfg.avoid.lookahead_m,
             cfg.avoid.directions,
         )
+    share = None if behavior.speed_share is None else behavior.speed_share(behavior_state, cfg)
     return steer(
-        target.replace(behavior_state=behavior_state), heading, cfg.target, cfg.episode.dt_s
+        target.replace(behavior_state=behavior_state), heading, cfg.target, cfg.episode.dt_s, share
     )
 
 

@@ -12,13 +12,21 @@ from dyncatch.sim.obstacles import Obstacles, push_out, reflect_heading
 from dyncatch.sim.state import TargetState
 
 
-def steer(target: TargetState, desired_heading_rad: jax.Array, cfg: TargetCfg, dt_s: float):
-    """Turn toward the desired heading by at most the turn-rate limit; run at the speed cap."""
+def steer(
+    target: TargetState,
+    desired_heading_rad: jax.Array,
+    cfg: TargetCfg,
+    dt_s: float,
+    speed_share: jax.Array | None = None,
+):
+    """Turn toward the desired heading by at most the turn-rate limit; run at the speed cap,
+    or at ``speed_share`` (clipped to [0, 1]) of it where given (``Behavior.speed_share``)."""
     max_turn = cfg.max_turn_rate_rps * dt_s
     turn = jnp.clip(wrap_angle(desired_heading_rad - target.heading_rad), -max_turn, max_turn)
-    return target.replace(
-        heading_rad=wrap_angle(target.heading_rad + turn), speed_mps=target.speed_cap_mps
-    )
+    speed = target.speed_cap_mps
+    if speed_share is not None:
+        speed = speed * jnp.clip(speed_share, 0.0, 1.0)
+    return target.replace(heading_rad=wrap_angle(target.heading_rad + turn), speed_mps=speed)
 
 
 def move(

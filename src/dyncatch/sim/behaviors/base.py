@@ -65,6 +65,10 @@ InitStateFn = Callable[[jax.Array, "WorldCfg"], tuple[jax.Array, jax.Array, Any]
 ValidateFn = Callable[["WorldCfg"], list[Check]]
 """world_cfg -> the behaviour's own checks; ``sim.validate`` raises on the first failed one."""
 
+SpeedShareFn = Callable[[Any, "WorldCfg"], jax.Array]
+"""(behaviour state pytree after ``desired_heading``, world_cfg) -> the share of the
+episode's speed cap the body runs at this step, () in [0, 1] (clipped by ``sim.target.steer``)."""
+
 
 def uniform_init(key: jax.Array, cfg: WorldCfg) -> tuple[jax.Array, jax.Array, NoState]:
     """Anywhere at least 1 m from the walls, any heading, no behaviour state."""
@@ -88,7 +92,7 @@ class Behavior:
     ``desired_heading`` is eq. 1's pi_obj: it sees the target (its ``behavior_state`` is this
     behaviour's state pytree), the robot (reactive targets react to it), the world config and
     a key. The body then turns toward the heading under the turn-rate limit and moves at the
-    episode's speed cap.
+    episode's speed cap, or at the share of it that ``speed_share`` reads from the new state.
     """
 
     desired_heading: DesiredHeadingFn
@@ -99,6 +103,10 @@ class Behavior:
     """Where an episode starts and the behaviour's first state."""
     validate: ValidateFn = no_checks
     """Checks of the behaviour's own parameters."""
+    speed_share: SpeedShareFn | None = None
+    """The share of the speed cap to run at, read from the state ``desired_heading`` returned
+    (a learned evader's speed action); None: always the cap (every scripted target, eq. 11-12's
+    constant speed)."""
     reflects_off_walls: bool = False
     """True: hitting a wall mirrors the heading (a bounce); False: the body slides along it."""
     scripted: bool = True

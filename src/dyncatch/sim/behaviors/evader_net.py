@@ -4,9 +4,9 @@ The ``learned`` behaviour runs it inside the world's step; the simulator may not
 trainer's Flax networks (``rl`` sits above ``sim``), so the actor is stored as a list of
 dense layers and evaluated here with the same ELU the trainer's ``rl.networks.MLP`` uses.
 The file is one safetensors checkpoint (``utils.tree_io``: atomic, checksummed, no pickle)
-whose header records the architecture, the feature names, the turn range and what the turn
-is added to (its action frame), so a file
-is refused when it does not match the features this version computes.
+whose header records the architecture, the feature names, the turn range, what the turn
+is added to (its action frame) and whether it also picks its speed (its speed action), so a
+file is refused when it does not match the features this version computes.
 """
 
 from __future__ import annotations
@@ -60,23 +60,40 @@ class EvaderNet:
     turn_limit_rad: float
     header: dict
     action_std: float | None = None
-    """The trained Gaussian policy's std, in action units ([-1, 1] spans the turn range)."""
+    """The trained Gaussian policy's std of the turn action, in action units ([-1, 1] spans
+    the turn range)."""
     action_frame: str = "heading"
     """What the turn is added to (``sim.behaviors.learned.ACTION_FRAMES``): ``heading``, the
     target's own heading, in a file that does not record it."""
     fov_rad: float = FULL_VIEW_RAD
     """The evader's field of view, its full angle centred on its heading
     (``sim.behaviors.learned.evader_features``); a whole turn in a file that records none."""
+    speed_action: bool = False
+    """A second action picks the speed, a share of the cap
+    (``sim.behaviors.learned.speed_share_of``); False (a file that records none): it runs at
+    the cap."""
+    speed_action_std: float | None = None
+    """The trained Gaussian policy's std of the speed action (None without one)."""
+
+    @property
+    def action_dim(self) -> int:
+        """1 (the turn), or 2 (turn, speed) with ``speed_action``."""
+        return 2 if self.speed_action else 1
+
+    def std_vector(self) -> jax.Array:
+        """The trained policy's std per action, (action_dim,)."""
+        stds = [self.action_std] + ([self.speed_action_std] if self.speed_action else [])
+        return jnp.asarray(stds, jnp.float32)
 
     def action_mean(self, features: jax.Array) -> jax.Array:
-        """The actor's mean action, (), from the features (D,), normalised and clipped as
-        in training."""
+        """The actor's mean action, (action_dim,), from the features (D,), normalised and
+        clipped as in training."""
         x = jnp.clip((features - self.norm_mean) / self.norm_std, -NORM_CLIP, NORM_CLIP)
         for i, (kernel, bias) in enumerate(self.layers):
             x = x @ kernel + bias
             if i + 1 < len(self.layers):
                 x = elu(x)
-        return x[0]
+        return x
 
     def turn(self, action: jax.Array) -> jax.Array:
         """An action, clipped to [-1, 1], as a turn in rad, as ``rl.train.to_command`` maps
@@ -85,7 +102,7 @@ class EvaderNet:
 
     def mean_turn(self, features: jax.Array) -> jax.Array:
         """The deterministic turn, (), rad, in [-turn_limit, turn_limit]."""
-        return self.turn(self.action_mean(features))
+        return self.turn(self.action_mean(features)[0])
 
 
 def actor_tree(layers, norm_mean, norm_std) -> dict:
@@ -110,6 +127,8 @@ def save_evader(path: str | os.PathLike, net: EvaderNet) -> Path:
         "action_std": None if net.action_std is None else float(net.action_std),
         "action_frame": net.action_frame,
         "fov_rad": float(net.fov_rad),
+        "speed_action": bool(net.speed_action),
+        "speed_action_std": None if net.speed_action_std is None else float(net.speed_action_std),
     }
     tree = actor_tree(
         [(np.asarray(k, np.float32), np.asarray(b, np.float32)) for k, b in net.layers],
@@ -126,11 +145,11 @@ def _bad(path: str, why: str) -> EvaderCheckpointError:
     )
 
 
-def load_evader(path: str, feature_names: Callable[[float], tuple[str, ...]]) -> EvaderNet:
+def load_evader(path: str, feature_names: Callable[[float, bool], tuple[str, ...]]) -> EvaderNet:
     """The evader network in ``path`` (cached per file and its modification time), checked
-    against ``feature_names(fov_rad)``, the features this version computes for the file's
-    field of view; EvaderCheckpointError naming the flag for an empty path, a missing,
-    damaged or mismatched file."""
+    against ``feature_names(fov_rad, speed_action)``, the features this version computes for
+    the file's field of view and speed action; EvaderCheckpointError naming the flag for an
+    empty path, a missing, damaged or mismatched file."""
     if not path:
         raise _bad(path, "is empty, and the learned behaviour runs a trained evader")
     p = Path(path)
@@ -144,7 +163,7 @@ def load_evader(path: str, feature_names: Callable[[float], tuple[str, ...]]) ->
 
 
 @functools.lru_cache(maxsize=16)
-def _load_cached(path: str, mtime_ns: int, size: int, names_of: Callable[[float], tuple]):
+def _load_cached(path: str, mtime_ns: int, size: int, names_of: Callable[[float, bool], tuple]):
     del mtime_ns, size  # part of the key only: a rewritten file is read again
     try:
         header = read_header(path)
@@ -156,7 +175,10 @@ def _load_cached(path: str, mtime_ns: int, size: int, names_of: Callable[[float]
         fov_rad = float(header.get("fov_rad", FULL_VIEW_RAD))
     except (TypeError, ValueError):
         raise _bad(path, f"its field of view {header.get('fov_rad')!r} is no angle") from None
-    feature_names = names_of(fov_rad)
+    speed_action = header.get("speed_action", False)
+    if not isinstance(speed_action, bool):
+        raise _bad(path, f"its speed_action {speed_action!r} is not true or false")
+    feature_names = names_of(fov_rad, speed_action)
     if tuple(header.get("features", ())) != feature_names:
         raise _bad(
             path,
@@ -187,8 +209,11 @@ def _load_cached(path: str, mtime_ns: int, size: int, names_of: Callable[[float]
         (np.asarray(actor[f"layer{i}"]["kernel"]), np.asarray(actor[f"layer{i}"]["bias"]))
         for i in range(len(sizes))
     )
-    if sizes[-1] != 1:
-        raise _bad(path, f"its actor has {sizes[-1]} outputs, the evader's action has 1")
+    want = 2 if speed_action else 1
+    if sizes[-1] != want:
+        what = "turn and speed" if speed_action else "turn"
+        raise _bad(path, f"its actor has {sizes[-1]} outputs, the evader's action ({what}) {want}")
+    speed_std = header.get("speed_action_std")
     return EvaderNet(
         layers,
         np.asarray(tree["norm"]["mean"]),
@@ -198,4 +223,6 @@ def _load_cached(path: str, mtime_ns: int, size: int, names_of: Callable[[float]
         None if header.get("action_std") is None else float(header["action_std"]),
         str(header.get("action_frame", "heading")),
         fov_rad,
+        speed_action,
+        None if speed_std is None else float(speed_std),
     )

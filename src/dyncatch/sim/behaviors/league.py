@@ -121,6 +121,16 @@ def league_heading(target, robot, cfg: WorldCfg, key: jax.Array):
     return heading, state.replace(states=states)
 
 
+def league_speed_share(state: LeagueState, cfg: WorldCfg) -> jax.Array:
+    """The drawn member's share of the speed cap (``Behavior.speed_share``; 1 for a member
+    without one: the scripted members, an evader without a speed action)."""
+    shares = [
+        jnp.ones(()) if b.speed_share is None else jnp.asarray(b.speed_share(s, w), jnp.float32)
+        for (b, w), s in zip(members(cfg), state.states, strict=True)
+    ]
+    return shares[0] if len(shares) == 1 else jnp.stack(shares)[state.member]
+
+
 def league_validate(cfg: WorldCfg) -> list[Check]:
     t = cfg.target
     bad = [
@@ -170,6 +180,7 @@ LEAGUE = Behavior(
     cfg_cls=LeagueCfg,
     init_state=league_init,
     validate=league_validate,
+    speed_share=league_speed_share,
     scripted=False,
     doc="each episode one member of a league (scripted behaviours, frozen evaders) by weight",
 )

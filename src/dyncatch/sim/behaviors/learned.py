@@ -6,10 +6,10 @@ function the evader's trainer (``dyncatch.rl.evader``) observes. Each step the e
 angle; the desired heading is its action frame (``ACTION_FRAMES``: its own heading by
 default, the flee direction, or the eq. 11-12 heading) plus it, and the body then turns toward it
 under the turn-rate limit and runs at the episode's speed cap, exactly as the scripted
-targets do (``sim.target.steer``). Speed is not the evader's to choose: it always runs at its
-cap (a reading; the issue allows any speed up to the cap, which is not built). Its view is
-a whole turn by default, or a field of view centred on its heading (``evader_features``'
-``fov_rad``, recorded in the evader's file).
+targets do (``sim.target.steer``). An evader trained with a speed action (``speed_action``,
+recorded in its file) also picks its speed, up to the cap (``speed_share``); one without runs
+at the cap. Its view is a whole turn by default, or a field of view centred on its heading
+(``evader_features``' ``fov_rad``, recorded in the evader's file).
 
 ``learned`` evaluates the frozen actor in ``target.evader_checkpoint`` deterministically
 (its mean turn; ``target.evader_sample`` draws around it as in training); ``commanded``
@@ -58,11 +58,16 @@ EVADER_OBS_DIM = len(FEATURE_NAMES)
 FOV_FEATURE_NAMES = (*FEATURE_NAMES, "robot_visible")
 """The observation of an evader with a field of view narrower than a whole turn: the same,
 then whether the robot is inside it (1) or not (0)."""
+SPEED_FEATURE = "speed_cap_mps"
+"""The feature an evader with a speed action sees besides ``FEATURE_NAMES`` (after them,
+before ``robot_visible``): the episode's speed cap, which its own speed no longer tells."""
 
 
-def feature_names(fov_rad: float = FULL_VIEW_RAD) -> tuple[str, ...]:
-    """The names of ``evader_features`` at field of view ``fov_rad``."""
-    return FEATURE_NAMES if fov_rad >= FULL_VIEW_RAD else FOV_FEATURE_NAMES
+def feature_names(fov_rad: float = FULL_VIEW_RAD, speed_action: bool = False) -> tuple[str, ...]:
+    """The names of ``evader_features`` at field of view ``fov_rad``, with or without the
+    speed action."""
+    names = FEATURE_NAMES + ((SPEED_FEATURE,) if speed_action else ())
+    return names if fov_rad >= FULL_VIEW_RAD else (*names, "robot_visible")
 
 
 def check_fov(fov_rad: float, flag: str = "fov_rad") -> None:
@@ -114,6 +119,15 @@ limit). ``heading``: the target's own heading; ``flee``: the flee direction; ``r
 the eq. 11-12 heading without gamma (a residual on the scripted rule)."""
 
 
+def speed_share_of(action: jax.Array) -> jax.Array:
+    """The share of the speed cap, () in [0, 1], that a speed action in [-1, 1] asks for:
+    ``clip(1 + action, 0, 1)`` (the reading ``speed_action``: an action of 0, an untrained
+    policy's mean, runs at the cap as every scripted target and the turn-only evader do, so
+    training starts from them and slows down only where slowing pays; -1 stands still; the
+    half above 0 is the cap too)."""
+    return jnp.clip(1.0 + jnp.clip(action, -1.0, 1.0), 0.0, 1.0)
+
+
 def turn_of(
     angle_rad: jax.Array, target: TargetState, robot: RobotState, frame: str, cfg: WorldCfg
 ) -> jax.Array:
@@ -141,18 +155,25 @@ class EvaderState:
     corner_xy_m: jax.Array
     """The arena square's lower corner (the scene frame's origin) in the local frame, (2,);
     it moves with the frame (``sim.frame.recentre``), so the walls are known at each step."""
+    speed_share: jax.Array
+    """The share of the speed cap it runs at, () in [0, 1]: commanded, set by the trainer;
+    learned, its speed action's (``speed_share_of``), 1 without one."""
 
 
 def evader_init(key: jax.Array, cfg: WorldCfg) -> tuple[jax.Array, jax.Array, EvaderState]:
     """Placed as the scripted targets are; reset runs in the scene frame, so the corner is 0."""
     xy, heading, _ = uniform_init(key, cfg)
-    return xy, heading, EvaderState(jnp.zeros(()), jnp.zeros(2))
+    return xy, heading, EvaderState(jnp.zeros(()), jnp.zeros(2), jnp.ones(()))
 
 
 def evader_features(
-    target: TargetState, robot: RobotState, cfg: WorldCfg, fov_rad: float = FULL_VIEW_RAD
+    target: TargetState,
+    robot: RobotState,
+    cfg: WorldCfg,
+    fov_rad: float = FULL_VIEW_RAD,
+    speed_action: bool = False,
 ) -> jax.Array:
-    """What the evader sees, named in ``feature_names(fov_rad)``:
+    """What the evader sees, named in ``feature_names(fov_rad, speed_action)``:
 
     - the robot's position relative to the target, m, in the target's heading frame
       (forward, left);
@@ -160,7 +181,8 @@ def evader_features(
     - the target's own speed, m/s;
     - the distances from the target's centre to the four sides of the arena square (x low,
       x high, y low, y high), m: the walls, so it does not run into a corner blindly;
-    - cos and sin of its heading in the square's frame (which way the walls lie ahead).
+    - cos and sin of its heading in the square's frame (which way the walls lie ahead);
+    - with ``speed_action``, the episode's speed cap, m/s.
 
     Obstacles are not observed (in the rooms and the woods the world's free-direction rule
     still turns every non-reflecting target away from them).
@@ -177,14 +199,14 @@ def evader_features(
     size = cfg.arena.size_m
     walls = jnp.stack([p[0], size - p[0], p[1], size - p[1]])
     heading = jnp.stack([jnp.cos(target.heading_rad), jnp.sin(target.heading_rad)])
+    own = [target.speed_mps[None], walls, heading]
+    if speed_action:
+        own.append(target.speed_cap_mps[None])
     if fov_rad >= FULL_VIEW_RAD:
-        return jnp.concatenate([rel, rel_vel, target.speed_mps[None], walls, heading])
+        return jnp.concatenate([rel, rel_vel, *own])
     visible = jnp.abs(jnp.arctan2(rel[1], rel[0])) <= 0.5 * fov_rad
     seen = lambda x: jnp.where(visible, x, 0.0)  # noqa: E731
-    return jnp.concatenate(
-        [seen(rel), seen(rel_vel), target.speed_mps[None], walls, heading,
-         visible.astype(rel.dtype)[None]]
-    )  # fmt: skip
+    return jnp.concatenate([seen(rel), seen(rel_vel), *own, visible.astype(rel.dtype)[None]])
 
 
 def evader_net(cfg: WorldCfg) -> EvaderNet:
@@ -197,13 +219,24 @@ def learned_heading(
 ) -> tuple[jax.Array, EvaderState]:
     """The frozen actor's mean turn (deterministic; ``key`` unused), or a turn drawn around
     it with ``key`` where ``target.evader_sample``, added to its action frame (the file's
-    ``action_frame``: the current heading or the flee direction)."""
+    ``action_frame``: the current heading or the flee direction); with the file's
+    ``speed_action``, the speed share its second action asks for (``speed_share_of``)."""
     net = evader_net(cfg)
-    action = net.action_mean(evader_features(target, robot, cfg, net.fov_rad))
+    features = evader_features(target, robot, cfg, net.fov_rad, net.speed_action)
+    action = net.action_mean(features)
     if cfg.target.evader_sample:
-        action = action + net.action_std * jax.random.normal(key, ())
-    turn = turn_of(net.turn(action), target, robot, net.action_frame, cfg)
-    return target.heading_rad + turn, target.behavior_state.replace(turn_rad=turn)
+        action = action + net.std_vector() * jax.random.normal(key, action.shape)
+    turn = turn_of(net.turn(action[0]), target, robot, net.action_frame, cfg)
+    state = target.behavior_state.replace(turn_rad=turn)
+    if net.speed_action:
+        state = state.replace(speed_share=speed_share_of(action[1]))
+    return target.heading_rad + turn, state
+
+
+def evader_speed_share(state: EvaderState, cfg: WorldCfg) -> jax.Array:
+    """The share of the cap in the state (1 unless a speed action set it)."""
+    del cfg
+    return state.speed_share
 
 
 def commanded_heading(
@@ -220,7 +253,9 @@ def learned_validate(cfg: WorldCfg) -> list[Check]:
     except EvaderCheckpointError as err:
         return [(False, "target.evader_checkpoint", str(err))]
     net = evader_net(cfg)
-    no_std = cfg.target.evader_sample and net.action_std is None
+    no_std = cfg.target.evader_sample and (
+        net.action_std is None or (net.speed_action and net.speed_action_std is None)
+    )
     why = "its file records no action std (written before it was recorded); retrain it"
     frame = f"its action frame {net.action_frame!r} is none of {', '.join(ACTION_FRAMES)}"
     return [
@@ -234,13 +269,15 @@ LEARNED = Behavior(
     cfg_cls=LearnedCfg,
     init_state=evader_init,
     validate=learned_validate,
+    speed_share=evader_speed_share,
     scripted=False,
-    doc="a trained PPO evader (target.evader_checkpoint), run at its speed cap",
+    doc="a trained PPO evader (target.evader_checkpoint), at its cap or its chosen speed",
 )
 
 COMMANDED = Behavior(
     desired_heading=commanded_heading,
     init_state=evader_init,
+    speed_share=evader_speed_share,
     scripted=False,
     doc="turns as an outer controller sets it (the evader trainer); alone, runs straight",
 )
