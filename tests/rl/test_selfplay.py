@@ -258,6 +258,7 @@ class TestBadInput:
             ({"league_scripted_share": 2.0}, "league_scripted_share"),
             ({"compare": ("rl", "rl")}, "--compare rl rl"),
             ({"compare": ("sp_rl", "rll")}, "--compare sp_rl rll"),
+            ({"evader_fov_rad": 0.0}, "--evader-fov-rad"),
         ],
     )
     def test_names_the_flag(self, tmp_path, fields, words):
@@ -268,6 +269,19 @@ class TestBadInput:
     def test_the_cli_says_it(self, tmp_path, capsys):
         assert main(["evader", "selfplay", "--out", str(tmp_path / "x"), "--rounds", "0"]) == 2
         assert "--rounds 0" in capsys.readouterr().err
+
+
+def test_every_evader_gets_the_studys_speed_action_and_field_of_view(tmp_path):
+    cfg = tiny(tmp_path / "x", evader_speed_action=True, evader_fov_rad=2.0)
+    run = selfplay.pursuer_runs(cfg, 0, "rl")[0]
+    for ev in (
+        selfplay.evader_cfg(cfg, 0),
+        selfplay.evader_cfg(cfg, 1),
+        selfplay.exploit_cfg(cfg, run, 0),
+    ):
+        assert (ev.speed_action, ev.fov_rad) == (True, 2.0)
+    plain = selfplay.evader_cfg(tiny(tmp_path / "y"), 0)
+    assert (plain.speed_action, plain.fov_rad) == (False, 2 * math.pi)
 
 
 def test_exploitability_by_hand():

@@ -122,6 +122,8 @@ def evader_cfg(cfg: SelfPlayCfg, k: int) -> EvaderTrainCfg:
         total_steps=cfg.evader_steps,
         seed=cfg.seed + k,
         out=evader_path(cfg.out, k),
+        fov_rad=cfg.evader_fov_rad,
+        speed_action=cfg.evader_speed_action,
         reward=cfg.reward,
         ppo=cfg.evader_ppo,
         world=cfg.world,

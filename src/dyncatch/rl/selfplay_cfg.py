@@ -11,6 +11,8 @@ from dyncatch.rl.config import PPOCfg, validate_ppo
 from dyncatch.rl.evader import EvaderRewardCfg
 from dyncatch.rl.evader_train import EVADER_PPO, EVADER_WORLD
 from dyncatch.rl.methods import METHODS, MethodName, get_method
+from dyncatch.sim.behaviors.evader_net import FULL_VIEW_RAD
+from dyncatch.sim.behaviors.learned import check_fov
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.validate import validate_world
 from dyncatch.utils.files import check_out_dir
@@ -67,6 +69,12 @@ class SelfPlayCfg:
     pursuer_eval_every: int = 0
     """Iterations between the pursuer runs' own evaluations (0: none, the exploit stage
     evaluates them)."""
+    evader_speed_action: bool = False
+    """Every evader (round and best-response ones) also picks its speed up to the cap
+    (dyncatch evader train --speed-action); default off: they run at the cap."""
+    evader_fov_rad: float = FULL_VIEW_RAD
+    """Every evader's field of view, rad (dyncatch evader train --fov-rad); default 2 pi:
+    it sees the robot wherever it is."""
     reward: EvaderRewardCfg = EvaderRewardCfg()
     """Every evader's reward (dyncatch.rl.evader.EvaderRewardCfg)."""
     evader_ppo: PPOCfg = EVADER_PPO
@@ -127,6 +135,7 @@ def validate_selfplay(cfg: SelfPlayCfg) -> None:
         )
     if cfg.pursuer_eval_every < 0:
         raise ValueError("--pursuer-eval-every must be >= 0 (0: no evaluation in training)")
+    check_fov(cfg.evader_fov_rad, "--evader-fov-rad")
     validate_ppo(cfg.evader_ppo)
     validate_ppo(cfg.pursuer_ppo)
     league = league_world(cfg, ())
