@@ -50,12 +50,19 @@ def _append(path, item):
         f.write(item)
 
 
-def test_the_serial_executor_runs_each_job_in_order_and_logs_it(tmp_path):
+def test_the_serial_executor_runs_each_job_in_order_and_logs_it_with_the_time_left(tmp_path):
     logs = []
     out = tmp_path / "order"
-    jobs = [Call(f"job {c}", _append, (out, c)) for c in "abc"]
-    SerialExecutor(logs.append).run(jobs)
-    assert out.read_text() == "abc" and logs == ["job a", "job b", "job c"]
+    jobs = [Call(f"job {c}", _append, (out, c)) for c in "abcd"]
+    ticks = iter([0.0, 0.0, 90.0, 300.0, 360.0])  # jobs of 90, 210 and 60 s
+    SerialExecutor(logs.append, clock=lambda: next(ticks)).run(jobs)
+    assert out.read_text() == "abcd"
+    assert logs == [
+        "job a",
+        "job b (job 2 of 4; at this stage's mean so far, 90 s a job, about 4 min left in it)",
+        "job c (job 3 of 4; at this stage's mean so far, 150 s a job, about 5 min left in it)",
+        "job d (job 4 of 4; at this stage's mean so far, 120 s a job, about 2 min left in it)",
+    ]
 
 
 def _registered(path, name):

@@ -24,6 +24,10 @@ names the measurement it comes from, all on the idle 2-core Xeon:
   The estimate printed before that run, 131 min, was 25 % under its 2 h 55 min: it counted
   the periodic evaluations as a fixed 20 % of the iterations and every method at ``rl``'s
   rate.
+
+On another machine these constants do not hold (the 2-core AMD EPYC runs about 1.6 x
+slower): the serial executor's log then gives, from a stage's second job on, the stage's
+time left at its mean measured job (``executors.remaining_note``).
 """
 
 from __future__ import annotations
