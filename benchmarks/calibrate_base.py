@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import time
 from pathlib import Path
 
@@ -64,7 +65,10 @@ def calibrate(cmd: CalibrateCmd) -> dict:
     sim_s = time.perf_counter() - t0
     limits = read_limits(responses, cmd.calibration, hz)
     default = cmd.fullbody.base
-    # A limit with no tracked command (0) or no turn (nan) keeps its default.
+    # A limit with no tracked command (0) or no turn (nan) keeps its default. The ground speed
+    # on the diagonal is reported, not fitted: the trot runs faster straight ahead (2.3 m/s)
+    # than on the diagonal, so a norm limit in the fit would cut the straight responses.
+    envelope = limits.pop("max_speed_mps", (math.nan, False))[0]
     found = {k: v for k, (v, _) in limits.items() if np.isfinite(v) and v > 0}
     with_limits = default.replace(**found)
     lag, lin, yaw, cost, table = fit_dynamics(responses, with_limits, cmd.calibration, 1 / hz)
@@ -97,6 +101,7 @@ def calibrate(cmd: CalibrateCmd) -> dict:
         "fitted": {k: getattr(fitted, k) for k in fields},
         "default": {k: getattr(default, k) for k in fields},
         "limit_at_grid_max": {k: at for k, (_, at) in limits.items()},
+        "max_speed_mps_read_off": envelope,
         "cost_fitted": round(cost, 5),
         "cost_default_dynamics_fitted_limits": round(
             response_cost(responses, with_limits, 1 / hz), 5

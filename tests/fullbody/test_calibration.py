@@ -23,6 +23,7 @@ CFG = CalibrationCfg(
     lateral_mps=(1.0,),
     yaw_rps=(1.0, 2.0),
     turns=((1.0, 1.0),),
+    diagonals=((1.0, 0.5), (2.0, 1.0)),
     hold_s=1.0,
     stop_s=0.5,
     measure_s=0.5,
@@ -59,6 +60,10 @@ def test_limits_are_the_largest_tracked_settled_values():
         _flat("yaw", (0, 0, 2.0), (0, 0, 1.9), fell=True),  # fell: not tracked
         # Turning at 0.8 m/s forward, 0.6 m/s outward (|v| = 1.0) and 1.5 rad/s: 1.5 m/s^2.
         _flat("turn", (1.0, 0, 2.0), (0.8, -0.6, 1.5)),
+        # On the diagonal: the largest settled ground speed, hypot(1.6, 1.2) = 2.0 m/s.
+        _flat("diagonal", (1.0, 0.5, 0), (0.9, 0.5, 0)),
+        _flat("diagonal", (2.0, 1.0, 0), (1.6, 1.2, 0)),
+        _flat("diagonal", (3.0, 1.0, 0), (2.5, 1.0, 0), fell=True),  # fell: left out
     ]
     limits = read_limits(responses, CFG, HZ)
     assert limits["max_forward_mps"] == (0.98, False)
@@ -66,13 +71,14 @@ def test_limits_are_the_largest_tracked_settled_values():
     assert limits["max_lateral_mps"] == (1.05, True)
     assert limits["max_yaw_rate_rps"] == (1.0, False)
     assert limits["max_lateral_accel_mps2"][0] == pytest.approx(1.5)
+    assert limits["max_speed_mps"][0] == pytest.approx(2.0)
 
 
 def test_the_fit_recovers_the_reduced_base_that_made_the_responses():
     truth = BaseCfg(lag_s=0.2, max_lin_accel_mps2=3.0, max_yaw_accel_rps2=6.0)
     responses = []
     for kind, cmd in calibration_commands(CFG):
-        if kind == "turn":
+        if kind in ("turn", "diagonal"):
             continue
         cmds = step_commands(cmd, CFG, HZ)
         vel = np.asarray(reduced_response(cmds, truth, 1 / HZ))

@@ -25,6 +25,7 @@ EXPECTED = {
         "world.base.max_lin_accel_mps2": (4.0, 2.0),
         "world.base.max_yaw_accel_rps2": (10.0, 9.5),
     },
+    "trot_envelope": {"world.base.max_speed_mps": (float("inf"), 1.93)},
     "paper_budget": {"train_steps": (4_000_000, 20_000_000)},
     "gamma_held": {"world.target.gamma_hold_s": (0.0, 0.5)},
     # The paper's observation is the standard one since issue 32: the reading changes

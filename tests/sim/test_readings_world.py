@@ -1,5 +1,8 @@
 """The world-side readings change exactly what they say: w2 per step or per second, eq. 8
-as a terminal event or a state indicator, and the limit on turning at speed."""
+as a terminal event or a state indicator, the limit on turning at speed, and the ground-speed
+limit (``trot_envelope``)."""
+
+import math
 
 import jax
 import jax.numpy as jnp
@@ -9,7 +12,8 @@ import pytest
 from dyncatch.evaluation.episodes import run_episodes
 from dyncatch.policies.pursuit import pursuit_policy
 from dyncatch.sim import env
-from dyncatch.sim.config import RewardCfg, WorldCfg
+from dyncatch.sim.base import clip_command, command_high, command_low
+from dyncatch.sim.config import BaseCfg, RewardCfg, WorldCfg
 
 from .helpers import place
 
@@ -82,3 +86,36 @@ def test_turning_at_speed_is_limited_by_the_lateral_acceleration(limit, expected
     assert speed == pytest.approx(2.0, abs=1e-3)
     # |v| x |yaw rate| <= 3 m/s^2: 1.5 rad/s at 2 m/s; no limit: the 2 rad/s command.
     assert float(s.robot.yaw_rate_rps) == pytest.approx(expected, abs=1e-3)
+
+
+def test_a_command_is_held_to_the_ground_speed_along_its_direction():
+    """``max_speed_mps`` scales (vx, vy) back along its direction after the box; the yaw rate
+    and commands within it are untouched, and at the default inf the box alone, bit for bit."""
+    commands = jnp.array([[2.0, 1.0, 1.5], [-1.0, -1.0, -2.0], [0.5, 0.2, 0.3], [3.0, 0.0, 0.0]])
+    box = BaseCfg()
+    np.testing.assert_array_equal(
+        clip_command(commands, box), jnp.clip(commands, command_low(box), command_high(box))
+    )
+    capped = clip_command(commands, box.replace(max_speed_mps=1.2))
+    clipped = jnp.clip(commands, command_low(box), command_high(box))
+    speed = np.linalg.norm(np.asarray(clipped[:, :2]), axis=1)
+    np.testing.assert_allclose(
+        np.linalg.norm(np.asarray(capped[:, :2]), axis=1), np.minimum(speed, 1.2), rtol=1e-6
+    )
+    # Along the box-clipped direction: the cross product with it is zero.
+    cross = capped[:, 0] * clipped[:, 1] - capped[:, 1] * clipped[:, 0]
+    np.testing.assert_allclose(cross, 0.0, atol=1e-6)
+    np.testing.assert_array_equal(capped[:, 2], clipped[:, 2])
+    np.testing.assert_array_equal(capped[2], clipped[2])  # 0.54 m/s: within the cap
+
+
+def test_the_base_settles_at_the_ground_speed_on_the_boxs_corner():
+    cfg = WorldCfg().with_behavior("circle")
+    quiet = cfg.base.replace(gait_noise_mps=0.0, gait_noise_yaw_rps=0.0)
+    step = jax.jit(env.step)
+    for cap, expected in ((1.93, 1.93), (float("inf"), math.hypot(2.0, 1.0))):
+        world = cfg.replace(base=quiet.replace(max_speed_mps=cap))
+        s = env.reset(jax.random.key(0), world)
+        for _ in range(100):  # 2 s at the box's corner, forward and left
+            s, *_ = step(s, jnp.array([2.0, 1.0, 0.0]), world)
+        assert float(jnp.linalg.norm(s.robot.vel_body_mps)) == pytest.approx(expected, abs=1e-3)

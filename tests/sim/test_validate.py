@@ -17,6 +17,7 @@ CFG = WorldCfg()
         (CFG.replace(arena=CFG.arena.replace(size_m=1.0)), "arena.size_m"),
         (CFG.replace(sensor=CFG.sensor.replace(rate_hz=0.0)), "sensor.rate_hz"),
         (CFG.replace(base=CFG.base.replace(max_lateral_accel_mps2=-3.0)), "base.max_lateral"),
+        (CFG.replace(base=CFG.base.replace(max_speed_mps=0.0)), "base.max_speed_mps"),
         (
             CFG.replace(base=CFG.base.replace(max_yaw_accel_rps2=0.0)),
             "base.max_lateral_accel_mps2/max_yaw",

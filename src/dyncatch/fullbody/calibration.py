@@ -11,7 +11,9 @@ The procedure (``benchmarks/calibrate_base.py`` runs it, ``docs/fullbody.md`` re
    limit (as ``dyncatch bench gait`` reads its top speeds). A limit at the grid's largest
    command is a lower bound (``at_grid_max``).
 3. **Turning at speed, read off.** The largest settled centripetal acceleration
-   |v| |yaw rate| over the turn responses is ``max_lateral_accel_mps2``.
+   |v| |yaw rate| over the turn responses is ``max_lateral_accel_mps2``; the largest settled
+   ground speed over the diagonal responses (forward and left held together) is
+   ``max_speed_mps``.
 4. **Lag and accelerations, least squares on a grid.** With the limits of 2-3 set, the
    reduced base (``sim.base.base_substep``, the code the JAX world runs, without noise)
    replays every straight response's commands; the cost is the mean squared velocity
@@ -49,6 +51,9 @@ class CalibrationCfg:
     """Yaw-rate step commands (``max_yaw_rate_rps``)."""
     turns: tuple[tuple[float, float], ...] = ((1.0, 2.0), (1.5, 2.0), (2.0, 2.0))
     """(forward m/s, yaw rate rad/s) commands held together (``max_lateral_accel_mps2``)."""
+    diagonals: tuple[tuple[float, float], ...] = ((1.0, 1.0), (1.5, 1.0), (1.75, 1.0), (2.0, 1.0))
+    """(forward m/s, left m/s) commands held together (``max_speed_mps``, the ground speed
+    on the diagonal; the last is the default box's corner)."""
     hold_s: float = 3.0
     """How long each command is held, from standing."""
     stop_s: float = 1.5
@@ -74,8 +79,8 @@ def grid(spec: tuple[float, float, float]) -> np.ndarray:
 @dataclasses.dataclass(frozen=True)
 class Response:
     """One step response: what was commanded and what the base did, both (T, 3) at 200 Hz
-    (forward m/s, left m/s, yaw rate rad/s); ``kind`` is forward, backward, lateral, yaw or
-    turn."""
+    (forward m/s, left m/s, yaw rate rad/s); ``kind`` is forward, backward, lateral, yaw,
+    turn or diagonal."""
 
     kind: str
     command: tuple[float, float, float]
@@ -97,6 +102,7 @@ def calibration_commands(cfg: CalibrationCfg) -> list[tuple[str, tuple[float, fl
     out += [("lateral", (0.0, v, 0.0)) for v in cfg.lateral_mps]
     out += [("yaw", (0.0, 0.0, w)) for w in cfg.yaw_rps]
     out += [("turn", (v, 0.0, w)) for v, w in cfg.turns]
+    out += [("diagonal", (v, u, 0.0)) for v, u in cfg.diagonals]
     return out
 
 
@@ -137,7 +143,9 @@ def settled(r: Response, cfg: CalibrationCfg, hz: float) -> np.ndarray:
 
 def read_limits(responses: list[Response], cfg: CalibrationCfg, hz: float) -> dict:
     """Step 2 and 3 of the procedure: ``{field: (value, at_grid_max)}`` for the four command
-    limits, and ``max_lateral_accel_mps2``'s value."""
+    limits, and the values of ``max_lateral_accel_mps2`` and ``max_speed_mps`` (the largest
+    settled ground speed, the norm of forward and left, over the diagonal responses: the
+    body's top speed where the box's corner drives it, saturated as the turns' is)."""
     limits = {}
     for kind, field in _LIMIT_FIELD.items():
         mine = [r for r in responses if r.kind == kind]
@@ -151,6 +159,10 @@ def read_limits(responses: list[Response], cfg: CalibrationCfg, hz: float) -> di
     turns = [settled(r, cfg, hz) for r in responses if r.kind == "turn" and not r.fell]
     accel = max((float(np.hypot(s[0], s[1]) * abs(s[2])) for s in turns), default=np.nan)
     limits["max_lateral_accel_mps2"] = (round(accel, 3), False)
+    diagonals = [settled(r, cfg, hz) for r in responses if r.kind == "diagonal" and not r.fell]
+    if any(r.kind == "diagonal" for r in responses):
+        speed = max((float(np.hypot(s[0], s[1])) for s in diagonals), default=np.nan)
+        limits["max_speed_mps"] = (round(speed, 3), False)
     return limits
 
 
@@ -239,6 +251,6 @@ def fit_dynamics(responses: list[Response], base: BaseCfg, cfg: CalibrationCfg, 
 
 def response_cost(responses: list[Response], base: BaseCfg, dt_s: float) -> float:
     """The fit's cost (step 4) of one config over the straight responses that did not fall."""
-    straight = [r for r in responses if r.kind != "turn" and not r.fell]
+    straight = [r for r in responses if r.kind not in ("turn", "diagonal") and not r.fell]
     bases = jax.tree.map(lambda x: jnp.full((1,), x, jnp.float32), base)
     return float(_costs(bases, *_stack(straight), dt_s)[0])

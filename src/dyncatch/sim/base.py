@@ -35,8 +35,15 @@ def command_high(cfg: BaseCfg) -> jax.Array:
 
 
 def clip_command(command: jax.Array, cfg: BaseCfg) -> jax.Array:
-    """Clip a (vx, vy, yaw rate) command, (..., 3), to the base's limits."""
-    return jnp.clip(command, command_low(cfg), command_high(cfg))
+    """Clip a (vx, vy, yaw rate) command, (..., 3), to the base's limits: each axis to its
+    own, then (vx, vy) scaled back along its direction to ``max_speed_mps`` (a factor of
+    exactly 1 within it, so at the default inf the box alone, bit for bit)."""
+    command = jnp.clip(command, command_low(cfg), command_high(cfg))
+    speed = jnp.linalg.norm(command[..., :2], axis=-1, keepdims=True)
+    scale = jnp.minimum(1.0, cfg.max_speed_mps / jnp.maximum(speed, 1e-6))
+    return jnp.concatenate([command[..., :2] * scale, command[..., 2:]], axis=-1).astype(
+        command.dtype
+    )
 
 
 def add_gait_noise(

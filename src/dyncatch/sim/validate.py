@@ -116,6 +116,7 @@ def validate_world(cfg: WorldCfg) -> WorldCfg:
             "need 0 < min <= max",
         ),
         (b.lag_s > 0, "base.lag_s", "must be positive"),
+        (b.max_speed_mps > 0, "base.max_speed_mps", "must be positive (inf: no limit)"),
         (
             b.max_lateral_accel_mps2 > 0 and b.max_yaw_accel_rps2 > 0,
             "base.max_lateral_accel_mps2/max_yaw_accel_rps2",
