@@ -48,3 +48,23 @@ def test_a_part_keeps_its_behaviours_outputs_and_the_shared_ones_once():
     assert part_plan(one, "reactive").to_json() == one.to_json()
     with pytest.raises(ValueError, match="--part straight is not trained on"):
         part_plan(whole, "straight")
+
+
+def test_a_part_recorded_before_a_field_existed_is_found_and_another_value_refused(tmp_path):
+    """``--merge-parts`` names a part by its plan.json: one recorded before
+    ``world.base.max_speed_mps`` existed (the field missing, the code's default since) is
+    still its behaviour's part; with the field at another value it is no part of the plan."""
+    import json
+
+    from dyncatch.reproduce.parts import _which_part, part_plans
+
+    plan = dataclasses.replace(PROFILES["power"], seeds=2)
+    parts = part_plans(plan)
+    recorded = parts["random_reactive"].to_json()
+    del recorded["world"]["base"]["max_speed_mps"]
+    (tmp_path / "plan.json").write_text(json.dumps(recorded))
+    assert _which_part(tmp_path, parts) == "random_reactive"
+    recorded["world"]["base"]["max_speed_mps"] = 1.5
+    (tmp_path / "plan.json").write_text(json.dumps(recorded))
+    with pytest.raises(ValueError, match="is no part of this plan.*world.base.max_speed_mps"):
+        _which_part(tmp_path, parts)

@@ -151,3 +151,63 @@ def test_a_part_of_the_plan_compares_and_pools_on_its_behaviours_endpoints():
     b["plan"]["episodes"] = 1000
     with pytest.raises(ValueError, match="different plans"):
         compare(a, b)
+
+
+def test_a_part_recorded_before_a_field_existed_is_still_a_part_of_the_plan():
+    """A field added since (``world.base.max_speed_mps``) is missing from an older part's
+    plan.json: at the value the code had before it, the part compares; at another, the
+    plans differ."""
+    import dataclasses
+
+    from dyncatch.reproduce.parts import part_plan
+    from dyncatch.reproduce.plan import PROFILES
+
+    whole = dataclasses.replace(PROFILES["power"], seeds=10)
+    part = dataclasses.replace(part_plan(whole, "reactive"), seeds=5, first_seed=10)
+    a = _with_cells(_results(0, 0.1, 0.0, 0.2, "resolved"), [0.9] * 10, [0.5, 0.6] * 5)
+    b = _with_cells(_results(10, 0.1, 0.0, 0.2, "resolved"), [0.8] * 5, [0.4, 0.7, 0.6, 0.5, 0.3])
+    a["plan"], b["plan"] = whole.to_json(), part.to_json()
+    del b["plan"]["world"]["base"]["max_speed_mps"]
+    assert compare(a, b)[0]["sets"] == ["0-9", "10-14"]
+    del a["plan"]["world"]["base"]["max_speed_mps"]  # both older: one plan still
+    assert compare(a, b)[0]["sets"] == ["0-9", "10-14"]
+    a["plan"]["world"]["base"]["max_speed_mps"] = 1.5
+    with pytest.raises(ValueError, match=r"different plans \(.*world\)"):
+        compare(a, b)
+
+
+def test_a_merged_set_names_for_each_endpoint_the_parts_that_measured_it():
+    """Seeds 10-14 measured both behaviours, seeds 15-19 reactive alone (a part): the
+    random_reactive endpoint is the first half's, and says so."""
+    from dyncatch.reproduce.replication import merged, pooled
+
+    def both(results, s, r, s2, r2):
+        results = _with_cells(results, s, r)
+        rr = copy.deepcopy(results["plan"]["primary_endpoints"][0])
+        rr.update(name="sp_rl_vs_rl_random_reactive", behavior="random_reactive")
+        results["plan"]["primary_endpoints"].append(rr)
+        row = copy.deepcopy(results["primary_endpoints"]["measured"][0])
+        row.update(endpoint="sp_rl_vs_rl_random_reactive", behavior="random_reactive")
+        results["primary_endpoints"]["measured"].append(row)
+        results["table_i"]["cells"] += [
+            {**c, "behavior": "random_reactive", "per_seed_success": p}
+            for c, p in zip(results["table_i"]["cells"], (s2, r2), strict=True)
+        ]
+        return results
+
+    s, r = [0.9, 0.8, 0.95, 0.85, 0.9], [0.5, 0.7, 0.4, 0.6, 0.3]
+    a = both(_results(0, 0.1, 0.0, 0.2, "resolved"), s * 2, r * 2, s * 2, r * 2)
+    h1 = both(_results(10, 0.1, 0.0, 0.2, "resolved"), s, r, s, r)
+    h2 = _with_cells(_results(15, 0.1, 0.0, 0.2, "resolved"), s, r)
+    h2["plan"]["primary_endpoints"] = h1["plan"]["primary_endpoints"]
+    for h in (h1, h2):
+        h["plan"]["seeds"] = 5
+    b = merged(h1, h2)
+    sets = {row["behavior"]: row["sets"] for row in b["primary_endpoints"]["measured"]}
+    assert sets == {"reactive": ["10-14", "15-19"], "random_reactive": ["10-14"]}
+    rows = {row["behavior"]: row for row in compare(a, b)}
+    assert rows["random_reactive"]["sets"] == ["0-9", "10-14"]
+    assert rows["reactive"]["sets"] == ["0-9", "10-14 + 15-19"]
+    pooled_sets = {row["behavior"]: (row["sets"], row["seeds"]) for row in pooled(a, b)}
+    assert pooled_sets["random_reactive"] == (["0-9", "10-14"], [15, 15])
+    assert pooled_sets["reactive"] == (["0-9", "10-14 + 15-19"], [20, 20])

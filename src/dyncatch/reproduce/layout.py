@@ -45,7 +45,7 @@ def check_plan(out: Path, plan: Plan) -> None:
     if path.exists():
         have = read_json(path, "delete it, or choose another --out")
         if have != want:
-            diff = _real_diff(have, want)
+            diff = plan_diff(have, want)
             if not diff:  # only fields added since, at their defaults: same results
                 write_json(path, want)
                 return
@@ -84,7 +84,7 @@ was recorded gt_rl trained with ``always`` and then, for a while, ``when_predict
 is compatible, so such a folder's gt_rl runs are never reused."""
 
 
-def _real_diff(have: dict, want: dict) -> dict:
+def plan_diff(have: dict, want: dict) -> dict:
     """The differing fields, leaving out those the recorded plan lacks whose new value is
     compatible with what the code did before the field existed: one of its ``LEGACY_VALUES``,
     else its default in the recorded plan's profile (a field added later defaults to the old
@@ -99,6 +99,15 @@ def _real_diff(have: dict, want: dict) -> dict:
         for k, v in config_diff(have, want).items()
         if k in known or k not in accepted or v[1] not in accepted[k]
     }
+
+
+def plans_differ(a: dict, b: dict) -> dict:
+    """The fields in which two recorded plans (``plan.json`` contents) differ, leaving out a
+    field one of them lacks where the other holds what the code did before it existed
+    (``plan_diff`` both ways): two runs of one plan, one recorded before a field was added,
+    do not differ."""
+    back = plan_diff(b, a)
+    return {k: v for k, v in plan_diff(a, b).items() if k in back}
 
 
 def predictor_dir(out: Path, behavior: str, kind: str) -> Path:

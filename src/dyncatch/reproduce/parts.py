@@ -20,6 +20,7 @@ import shutil
 from collections.abc import Sequence
 from pathlib import Path
 
+from dyncatch.reproduce.layout import plans_differ
 from dyncatch.reproduce.plan import ROUNDING_ONLY, Plan
 from dyncatch.reproduce.stages import stages_of
 from dyncatch.utils.config_io import config_diff
@@ -90,7 +91,7 @@ def _which_part(folder: Path, parts: dict[str, Plan]) -> str:
         read_json(folder / "plan.json", "name a part's results folder (run it with --part first)")
     )
     for behavior, p in parts.items():
-        if recorded == _identity(p.to_json()):
+        if not plans_differ(recorded, _identity(p.to_json())):
             return behavior
     near = min(parts, key=lambda b: len(config_diff(recorded, _identity(parts[b].to_json()))))
     diff = config_diff(recorded, _identity(parts[near].to_json()))

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from dyncatch.reproduce.aggregate import gap, judge_family
 from dyncatch.reproduce.endpoints import Endpoint
+from dyncatch.reproduce.layout import plans_differ
 from dyncatch.reproduce.parts import part_plan
 from dyncatch.reproduce.plan import ROUNDING_ONLY, Plan
 from dyncatch.utils.config_io import from_dict
@@ -53,6 +54,16 @@ def _seeds(results: dict) -> str:
     return f"{min(seeds)}-{max(seeds)}"
 
 
+def _seeds_for(results: dict, key: tuple) -> str:
+    """The seeds that measured one endpoint (``_key``): a merged set's parts that did
+    (a behaviour's part measures that behaviour's alone), else ``_seeds``."""
+    if "merged_from" in results:
+        for row in results["primary_endpoints"]["measured"]:
+            if _key(row) == key and "sets" in row:
+                return " + ".join(row["sets"])
+    return _seeds(results)
+
+
 def rounding_only_differences(a: dict, b: dict) -> list[str]:
     """The ``ROUNDING_ONLY`` fields in which two plans differ (``field: a/b``)."""
     return [
@@ -70,7 +81,8 @@ def _is_part(whole: dict, part: dict) -> bool:
     except (TypeError, ValueError, KeyError):
         return False
     return any(
-        _plan_and_seeds({"plan": part_plan(plan, b).to_json()})[0] == part for b in plan.behaviors
+        not plans_differ(_plan_and_seeds({"plan": part_plan(plan, b).to_json()})[0], part)
+        for b in plan.behaviors
     )
 
 
@@ -80,8 +92,8 @@ def compare(a: dict, b: dict) -> list[dict]:
     plans (unless one is a part of the other's) or of overlapping seeds, which would not be
     a replication."""
     (pa, seeds_a), (pb, seeds_b) = _plan_and_seeds(a), _plan_and_seeds(b)
-    if pa != pb and not (_is_part(pa, pb) or _is_part(pb, pa)):
-        differ = sorted(k for k in pa.keys() | pb.keys() if pa.get(k) != pb.get(k))
+    if plans_differ(pa, pb) and not (_is_part(pa, pb) or _is_part(pb, pa)):
+        differ = sorted({k.split(".")[0] for k in plans_differ(pa, pb)})
         raise ValueError(f"the two runs have different plans ({', '.join(differ[:4])}): "
                          "a replication repeats one plan with other seeds")  # fmt: skip
     if seeds_a & seeds_b:
@@ -101,7 +113,7 @@ def compare(a: dict, b: dict) -> list[dict]:
                 "claim": ra["claim"],
                 "behavior": ra["behavior"],
                 "speed_mps": ra["speed_mps"],
-                "sets": [_seeds(a), _seeds(b)],
+                "sets": [_seeds_for(a, _key(ra)), _seeds_for(b, _key(ra))],
                 "difference": [ra["difference"], rb["difference"]],
                 "ci95": [ra["ci95"], rb["ci95"]],
                 "outcome": [_outcome(ra), _outcome(rb)],
@@ -166,7 +178,15 @@ def _pooled_rows(sets: tuple[dict, ...], in_every_set: bool) -> list[dict]:
             **gap(winner, loser),
         }
         row = judge_family([check], [e])[0]
-        row["sets"] = [_seeds(r) for r in sets]
+        key = (row["endpoint"], e.behavior, e.speed_mps)
+        row["sets"] = [
+            _seeds_for(r, key)
+            for r in sets
+            if all(
+                _merged_cell(r["table_i"]["cells"], m, e.behavior, e.speed_mps) is not None
+                for m in e.claim
+            )
+        ]
         out.append(row)
     return out
 
