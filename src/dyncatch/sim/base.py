@@ -9,6 +9,8 @@ Velocities are in the base frame: x forward, y to the left.
 
 from __future__ import annotations
 
+import math
+
 import jax
 import jax.numpy as jnp
 
@@ -36,9 +38,12 @@ def command_high(cfg: BaseCfg) -> jax.Array:
 
 def clip_command(command: jax.Array, cfg: BaseCfg) -> jax.Array:
     """Clip a (vx, vy, yaw rate) command, (..., 3), to the base's limits: each axis to its
-    own, then (vx, vy) scaled back along its direction to ``max_speed_mps`` (a factor of
-    exactly 1 within it, so at the default inf the box alone, bit for bit)."""
+    own, then (vx, vy) scaled back along its direction to ``max_speed_mps``. At the default
+    inf the scaling is not compiled in: the program is the box's alone, so XLA fuses what
+    follows exactly as it did before the limit existed (bit for bit, returns included)."""
     command = jnp.clip(command, command_low(cfg), command_high(cfg))
+    if math.isinf(cfg.max_speed_mps):
+        return command
     speed = jnp.linalg.norm(command[..., :2], axis=-1, keepdims=True)
     scale = jnp.minimum(1.0, cfg.max_speed_mps / jnp.maximum(speed, 1e-6))
     return jnp.concatenate([command[..., :2] * scale, command[..., 2:]], axis=-1).astype(

@@ -54,10 +54,11 @@ class BaseCfg:
     """Largest sideways command (magnitude)."""
     max_yaw_rate_rps: float = 2.0
     """Largest yaw-rate command (magnitude)."""
-    max_speed_mps: float = math.inf
+    max_speed_mps: float = static(math.inf)
     """Largest ground speed commanded, the norm of (vx, vy): a command outside it is scaled
     back along its direction after the per-axis limits; inf (the default) leaves the box of
-    those limits alone. The named reading ``trot_envelope`` sets the full-body trot's."""
+    those limits alone, compiling no scaling at all (a compile-time constant). The named
+    reading ``trot_envelope`` sets the full-body trot's."""
     lag_s: float = 0.1
     """Time constant of the first-order tracking of commanded velocities."""
     max_lin_accel_mps2: float = 4.0
