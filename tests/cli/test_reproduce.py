@@ -262,6 +262,11 @@ def _dies_once(marker: str) -> None:
         f.write("done")
 
 
+def _write_niceness(path: str) -> None:
+    with open(path, "w") as f:
+        f.write(str(os.nice(0)))
+
+
 def _raises(marker: str) -> None:
     with open(marker, "a") as f:
         f.write("x")
@@ -294,6 +299,18 @@ def test_a_dead_ray_worker_is_retried_and_a_failing_job_keeps_the_others(local_r
     assert open(died).read() == "done"
     assert open(failed).read() == "x"
     assert "done: dies once" in logs and "failed: raises" in logs
+
+
+def test_a_local_rays_workers_run_at_the_drivers_niceness(local_ray, tmp_path):
+    """The driver's, not 15 below it (Ray's default), at which any other busy process
+    starves the jobs."""
+    from tests.reproduce.test_executors import Call
+
+    executor, _ = local_ray
+    path = str(tmp_path / "nice")
+    executor.run([Call("niceness", _write_niceness, (path,))])
+    assert executor.worker_niceness == 0
+    assert int(open(path).read()) == os.nice(0)
 
 
 def test_a_ray_grid_gives_the_serial_report(quick, local_ray, tmp_path):

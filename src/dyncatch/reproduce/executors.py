@@ -114,6 +114,12 @@ class RayExecutor:
     log: Callable[[str], None] = print
     max_retries: int = 3
     """Re-runs of a job whose worker died (a killed process, a lost node)."""
+    worker_niceness: int = 0
+    """The ``nice`` value of a local Ray's worker processes (unused with ``address``). Ray's
+    own default, 15, lets any other busy process on the machine starve the jobs, which are
+    the run's whole work: beside one busy process on the 2-core Xeon, a local Ray's two
+    workers got a few per cent of a core and a 16 s test took 202 s (2026-12-05,
+    docs/performance.md, "The test suite")."""
     _started: bool = field(default=False, init=False)
 
     def __post_init__(self) -> None:
@@ -143,6 +149,8 @@ class RayExecutor:
             include_dashboard=False,
             log_to_driver=False,
             logging_level="ERROR",
+            # Ray's system config is set only by the process that starts the cluster.
+            _system_config={"worker_niceness": self.worker_niceness} if local else None,
         )
 
     def run(self, jobs: Sequence[Job]) -> None:
