@@ -72,6 +72,14 @@ def test_missing_file_says_to_train(tmp_path):
         checkpoint.load(tmp_path / "none.safetensors")
 
 
+def test_a_run_folder_names_the_file_to_give(saved):
+    """`dyncatch predictor train --out DIR` writes DIR/predictor.safetensors; DIR itself
+    given where the file is expected says so."""
+    path, _ = saved
+    with pytest.raises(FileNotFoundError, match=rf"is a folder \(it holds {path.name}\)"):
+        checkpoint.load(path.parent)
+
+
 def test_the_world_quantities_come_from_the_world_and_are_recorded(saved):
     path, _ = saved
     # The default world: a 16 m arena, a 2 Hz camera (0.5 s between frames).

@@ -88,6 +88,13 @@ def save(
 
 
 def _read(path: Path, formats: tuple[str, ...] = (FORMAT,)) -> tuple[dict, dict[str, np.ndarray]]:
+    if path.is_dir():
+        inside = sorted(p.name for p in path.glob("*.safetensors"))
+        hint = f" (it holds {', '.join(inside)})" if inside else ""
+        raise FileNotFoundError(
+            f"{path} is a folder{hint}: give the predictor's checkpoint file, "
+            f"e.g. {path / 'predictor.safetensors'}"
+        )
     if not path.is_file():
         raise FileNotFoundError(f"no predictor checkpoint at {path}: train one first")
     try:
