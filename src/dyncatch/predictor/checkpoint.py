@@ -71,6 +71,10 @@ def tracker_from_json(d: dict) -> Tracker:
     return Tracker(TrackerCfg(**cfg), float(d["control_dt_s"]))
 
 
+PREDICTOR_FILE = "predictor.safetensors"
+"""The checkpoint's name in a `dyncatch predictor train --out` folder."""
+
+
 def save(
     path: str | os.PathLike,
     predictor: Predictor | Tracker,
@@ -93,7 +97,7 @@ def _read(path: Path, formats: tuple[str, ...] = (FORMAT,)) -> tuple[dict, dict[
         hint = f" (it holds {', '.join(inside)})" if inside else ""
         raise FileNotFoundError(
             f"{path} is a folder{hint}: give the predictor's checkpoint file, "
-            f"e.g. {path / 'predictor.safetensors'}"
+            f"e.g. {path / PREDICTOR_FILE}"
         )
     if not path.is_file():
         raise FileNotFoundError(f"no predictor checkpoint at {path}: train one first")

@@ -114,6 +114,6 @@ def train_predictor(cfg: PredictorTrainCfg, progress: Progress | None = None) ->
         "error_mps": error,
         "seconds": time.perf_counter() - t0,
     }
-    checkpoint.save(cfg.out / "predictor.safetensors", predictor, params, info=metrics)
+    checkpoint.save(cfg.out / checkpoint.PREDICTOR_FILE, predictor, params, info=metrics)
     (cfg.out / "metrics.json").write_text(json.dumps(metrics, indent=2))
     return metrics

@@ -18,6 +18,7 @@ import jax
 
 from dyncatch.evaluation.grid import evaluate_speeds
 from dyncatch.policies.registry import BASELINES
+from dyncatch.predictor.checkpoint import PREDICTOR_FILE
 from dyncatch.predictor.config import CollectCfg, PredictorCfg, TrainCfg
 from dyncatch.predictor.pipeline import PredictorTrainCfg, train_predictor
 from dyncatch.predictor.table import TableCfg, run_table, write
@@ -126,7 +127,7 @@ def policy_spec(
 
 
 def predictor_done(d: Path) -> bool:
-    return (d / "metrics.json").exists() and (d / "predictor.safetensors").exists()
+    return (d / "metrics.json").exists() and (d / PREDICTOR_FILE).exists()
 
 
 @dataclass(frozen=True)

@@ -23,6 +23,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
+from dyncatch.predictor.checkpoint import PREDICTOR_FILE
 from dyncatch.reproduce.plan import PROFILES, Plan
 from dyncatch.rl.methods import get_method
 from dyncatch.sim.config import LEGACY_WORLD
@@ -117,7 +118,7 @@ def predictor_dir(out: Path, behavior: str, kind: str) -> Path:
 def predictor_path(out: Path, behavior: str, method: str) -> Path | None:
     """The frozen predictor ``method`` reads for ``behavior``'s runs (None if it reads none)."""
     kind = get_method(method).predictor_kind
-    return None if kind is None else predictor_dir(out, behavior, kind) / "predictor.safetensors"
+    return None if kind is None else predictor_dir(out, behavior, kind) / PREDICTOR_FILE
 
 
 def run_dir(out: Path, behavior: str, method: str, seed: int) -> Path:

@@ -76,7 +76,7 @@ def train_tracker(cfg: PredictorTrainCfg, progress: Progress | None = None) -> d
         **scores,
         "seconds": time.perf_counter() - t0,
     }
-    checkpoint.save(cfg.out / "predictor.safetensors", tracker, params, info=metrics)
+    checkpoint.save(cfg.out / checkpoint.PREDICTOR_FILE, tracker, params, info=metrics)
     (cfg.out / "metrics.json").write_text(json.dumps(metrics, indent=2))
     return metrics
 
