@@ -19,6 +19,7 @@ from dyncatch.sim.state import EnvState
 
 
 @partial(jax.jit, static_argnames=("num_envs", "num_steps"))
+@partial(jax.jit, static_argnames=("num_envs", "num_steps"))
 def random_rollout(key: jax.Array, cfg: WorldCfg, num_envs: int, num_steps: int):
     """Random commands (held for 0.5 s, drawn 20 % beyond the limits to test clipping).
 

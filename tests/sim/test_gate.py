@@ -128,6 +128,33 @@ class TestOneBatch:
         assert bool(jnp.all(out[~active] == 0.0))
 
 
+@pytest.mark.parametrize("depth", [1, 2])
+def test_a_step_traces_the_arms_control_step_once_for_all_the_gates_branches(monkeypatch, depth):
+    # Under vmap the gate has four branches (none, two sub-batches, all) and an unbatched
+    # definition. The branches share the batching rule's trace of the reaching arm's control
+    # step, inlined into each (so each program is the one a call in each branch gives: the
+    # tests above and tests/sim/test_vec.py); the unbatched definition traces it once more
+    # where its float arguments differ in weak typing (part of jit's cache key). Each trace
+    # costs about 0.25 s of Python: a step traced in 1.0 s with one per branch, 0.5 s now.
+    calls = []
+    along = sim_env._arm_along
+
+    def counted(*args, **kwargs):
+        calls.append(kwargs["reach"])
+        return along(*args, **kwargs)
+
+    monkeypatch.setattr(sim_env, "_arm_along", counted)
+    keys = jax.random.split(jax.random.key(0), 64)
+    state = jax.vmap(sim_env.reset, in_axes=(0, None))(keys, CFG)
+    if depth == 2:  # seeds around environments
+        state = jax.tree.map(lambda x: jnp.broadcast_to(x, (2, *x.shape)), state)
+    step = lambda s, a: sim_env.step(s, a, CFG)  # noqa: E731
+    for _ in range(depth):
+        step = jax.vmap(step)
+    jax.make_jaxpr(step)(state, jnp.zeros((*state.step.shape, 3)))
+    assert calls and all(calls) and len(calls) <= 2, calls  # the folding arm: no gate
+
+
 class TestNestedVmap:
     """A vmap over seeds around a vmap over environments (``rl.seeds``)."""
 

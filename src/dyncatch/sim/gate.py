@@ -48,6 +48,10 @@ def where_active(fn: Callable, fractions: Sequence[float]) -> Callable:
     For one environment ``fn`` runs only when ``active`` (``lax.cond``).
     """
     fractions = tuple(fractions)
+    # Traced once per argument types: every branch below (the unbatched ``cond``, the
+    # whole batch, each compact sub-batch, the shapes of "nobody") reuses the one trace of
+    # ``fn``, inlined where it is called, so the program is what calling ``fn`` gives.
+    fn = jax.jit(fn, inline=True)
 
     @custom_vmap
     def gated(active, *args):
@@ -99,8 +103,14 @@ def _flat_gate(fn: Callable, treedef, batched: tuple[bool, ...], fractions) -> C
         )
 
     def nobody(active, leaves):
-        shapes = jax.eval_shape(partial(everyone, active, leaves))
-        return jax.tree.map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
+        # One environment's output shapes, from the trace the other branches share.
+        one = [
+            jax.ShapeDtypeStruct(x.shape[1:] if b else x.shape, x.dtype, weak_type=weak)
+            for x, b in zip(leaves, batched, strict=True)
+            for weak in [getattr(jax.typeof(x), "weak_type", False)]
+        ]
+        shapes = jax.eval_shape(call, *one)
+        return jax.tree.map(lambda s: jnp.zeros((active.shape[0], *s.shape), s.dtype), shapes)
 
     @custom_vmap
     def gate(active, *leaves):
