@@ -2,6 +2,7 @@
 trained checkpoint that runs as the ``learned`` behaviour with the trainer's own numbers."""
 
 import dataclasses
+import json
 import math
 
 import jax
@@ -14,7 +15,13 @@ from dyncatch.policies.intercept import intercept_policy
 from dyncatch.policies.pursuit import pursuit_policy
 from dyncatch.rl.config import PPOCfg
 from dyncatch.rl.evader import EvaderRewardCfg, evader_env
-from dyncatch.rl.evader_train import EvaderTrainCfg, evader_net_of, train_evader
+from dyncatch.rl.evader_train import (
+    SELECTION_FILE,
+    EvaderTrainCfg,
+    evader_net_of,
+    held_out_escape,
+    train_evader,
+)
 from dyncatch.rl.train import make_train, to_command
 from dyncatch.sim import env as sim_env
 from dyncatch.sim.api import Environment
@@ -23,6 +30,7 @@ from dyncatch.sim.behaviors.learned import EVADER_OBS_DIM, evader_net
 from dyncatch.sim.behaviors.reactive import flee_and_dodge
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.validate import validate_world
+from dyncatch.utils.tree_io import read_header
 
 TINY = PPOCfg(num_envs=8, num_steps=8, num_minibatches=2, update_epochs=1, hidden_sizes=(16,))
 WORLD = WorldCfg().with_speed(1.6)
@@ -300,3 +308,38 @@ def test_an_evader_trained_with_a_field_of_view_runs_as_the_learned_target(tmp_p
     assert np.all(np.isfinite(np.asarray(_episode(jax.random.key(3), world)[0])))
     with pytest.raises(ValueError, match="--fov-rad"):
         train_evader(dataclasses.replace(cfg, out=tmp_path / "x", fov_rad=0.0))
+
+
+def test_select_every_keeps_the_best_held_out_iterate(tmp_path):
+    world = WORLD.replace(episode=WORLD.episode.replace(duration_s=2.0))
+    cfg = EvaderTrainCfg(
+        total_steps=3 * TINY.batch_size,
+        out=tmp_path,
+        ppo=TINY,
+        world=world,
+        select_every=1,
+        select_episodes=6,
+    )
+    metrics = train_evader(cfg)
+    sel = json.loads((tmp_path / SELECTION_FILE).read_text())
+    assert sel["iterations"] == [1, 2, 3] and sel["episodes"] == 6
+    assert all(round(e * 6, 6) == int(round(e * 6)) for e in sel["escape"])  # shares of 6
+    best = int(np.argmax(sel["escape"]))  # the first of equals: only a better one replaces it
+    assert (sel["selected_iteration"], sel["selected_escape"]) == (best + 1, sel["escape"][best])
+    assert metrics["held_out_escape"] == sel["escape"][-1]
+    header = read_header(tmp_path / EVADER_CHECKPOINT)
+    assert header["iteration"] == best + 1
+    # The held-out episodes are the same for every candidate: a state scored twice agrees.
+    env = evader_env(world, pursuit_policy(world))
+    init, iterate, _ = make_train(env, TINY)
+    ts = jax.jit(init)(jax.random.key(0))
+    key = jax.random.key(3)
+    assert held_out_escape(ts, env, TINY, key, 6) == held_out_escape(ts, env, TINY, key, 6)
+
+
+@pytest.mark.parametrize(("field", "value"), [("select_every", -1), ("select_episodes", 0)])
+def test_bad_selection_flags_are_refused_naming_them(tmp_path, field, value):
+    cfg = EvaderTrainCfg(out=tmp_path / "x", ppo=TINY, world=WORLD, **{field: value})
+    with pytest.raises(ValueError, match="--select-every") as err:
+        train_evader(cfg)
+    assert "--select-episodes" in str(err.value) and not (tmp_path / "x").exists()

@@ -12,17 +12,22 @@ import dataclasses
 import functools
 import time
 from pathlib import Path
+from typing import Any
 
 import jax
 import numpy as np
+from flax import struct
 
+from dyncatch.evaluation.episodes import run_episodes
 from dyncatch.policies.registry import BASELINES
 from dyncatch.rl.config import PPOCfg, validate_ppo
 from dyncatch.rl.evader import EvaderRewardCfg, Skeleton, evader_env, split_arrays
 from dyncatch.rl.guard import check_finite
 from dyncatch.rl.logging import MetricLog
+from dyncatch.rl.networks import ActorCritic
+from dyncatch.rl.normalize import RunningNorm
 from dyncatch.rl.policy import load_run
-from dyncatch.rl.train import TrainState, make_train
+from dyncatch.rl.train import TrainState, flat_obs, make_train, to_command
 from dyncatch.sim.behaviors.evader_net import (
     EVADER_CHECKPOINT,
     FULL_VIEW_RAD,
@@ -33,7 +38,7 @@ from dyncatch.sim.behaviors.learned import TURN_LIMIT_RAD, ActionFrame, check_fo
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.validate import validate_world
 from dyncatch.utils.config_io import config_diff
-from dyncatch.utils.files import check_out_dir
+from dyncatch.utils.files import check_out_dir, write_json
 from dyncatch.utils.progress import NoProgress, Progress
 from dyncatch.utils.tree_io import TreeFileError
 
@@ -69,6 +74,16 @@ class EvaderTrainCfg:
     --world.target.evader-checkpoint OUT) and metrics.csv."""
     checkpoint_every: int = 20
     """Iterations between checkpoints (one is always written at the end)."""
+    select_every: int = 0
+    """Keep the best iterate instead of the last: every this many iterations (and at the
+    end) the deterministic evader plays --select-episodes held-out episodes of its training
+    world (keys of their own, the same for every candidate) and evader.safetensors is
+    rewritten only when its escape rate beats every earlier one; selection.json records
+    each candidate. 0 (default): the last iterate, written every --checkpoint-every. A
+    reading for issue 34: evader training peaks early and then declines (docs/evaders.md)."""
+    select_episodes: int = 128
+    """Held-out episodes per candidate of --select-every (a binomial error of about 0.04 at
+    128)."""
     turn_limit_rad: float = TURN_LIMIT_RAD
     """The turn, rad, that the action's range [-1, 1] spans (default pi, a reading: any
     heading change; the body then turns by at most target.max_turn_rate_rps x dt, 0.2 rad a
@@ -201,6 +216,11 @@ def _validate(cfg: EvaderTrainCfg) -> None:
     check_fov(cfg.fov_rad, "--fov-rad")
     if cfg.total_steps < 1 or cfg.checkpoint_every < 1:
         raise ValueError("--total-steps and --checkpoint-every must be >= 1")
+    if cfg.select_every < 0 or cfg.select_episodes < 1:
+        raise ValueError(
+            f"--select-every {cfg.select_every} / --select-episodes {cfg.select_episodes}: "
+            "give --select-every >= 0 (0: keep the last iterate) and --select-episodes >= 1"
+        )
     validate_ppo(cfg.ppo)
     validate_world(cfg.world.with_behavior("commanded"))
     check_out_dir(cfg.out)
@@ -222,6 +242,41 @@ def evader_iterate(weights: tuple, ts: TrainState, skeleton: Skeleton, ppo: PPOC
     tests' two-round study)."""
     _, iterate, _ = make_train(skeleton.fill(weights), ppo)
     return iterate(ts)
+
+
+SELECTION_FILE = "selection.json"
+"""--select-every's record in the run folder: each candidate's iteration and held-out escape
+rate, and the one kept (``selected_iteration``, ``selected_escape``)."""
+SELECT_STREAM = 0x5E1EC7
+"""The held-out selection episodes' keys are the training seed folded with this."""
+
+
+@struct.dataclass
+class MeanEvader:
+    """A training state's evader as a policy of its own environment: the mean action, as
+    the ``learned`` behaviour deploys it. A pytree (weights and environment are arguments),
+    so every candidate of a run shares one compiled evaluation."""
+
+    net: ActorCritic = struct.field(pytree_node=False)
+    params: dict
+    norm: RunningNorm
+    env: Any
+    is_pytree_policy: bool = struct.field(pytree_node=False, default=True)
+
+    def init_carry(self, state, obs) -> tuple:
+        return ()
+
+    def step(self, carry, state, obs, key):
+        mean, _, _ = self.net.apply(self.params, self.norm(flat_obs(state, obs)))
+        return carry, to_command(mean, self.env)
+
+
+def held_out_escape(ts: TrainState, env, ppo: PPOCfg, key: jax.Array, episodes: int) -> float:
+    """The escape rate of the training state's deterministic evader (``MeanEvader``) over
+    ``episodes`` fresh episodes of ``env`` from ``key``."""
+    _, _, net = make_train(env, ppo)
+    policy = MeanEvader(net, ts.params, ts.norm, env)
+    return float(np.mean(np.asarray(run_episodes(policy, key, env, episodes)["success"])))
 
 
 def train_evader(cfg: EvaderTrainCfg, progress: Progress | None = None) -> dict[str, float]:
@@ -251,20 +306,38 @@ def train_evader(cfg: EvaderTrainCfg, progress: Progress | None = None) -> dict[
     cfg.out.mkdir(parents=True, exist_ok=True)
     log = MetricLog(cfg.out, 0, ("csv",), header)
     metrics: dict[str, float] = {}
+    select_key = jax.random.fold_in(jax.random.key(cfg.seed), SELECT_STREAM)
+    selection: dict = {"episodes": cfg.select_episodes, "iterations": [], "escape": []}
     clock0 = time.perf_counter()
+
+    def save():
+        net = evader_net_of(
+            ts, header, cfg.turn_limit_rad, cfg.action_frame, cfg.fov_rad, cfg.speed_action
+        )
+        save_evader(path, net)
+
     try:
         for it in range(total_iters):
             ts, m = evader_iterate(weights, ts, skeleton, cfg.ppo)
             metrics = {k: float(v) for k, v in jax.device_get(m).items()}
             check_finite(ts.params, ts.norm, metrics, it + 1, path, None)
+            last = it + 1 == total_iters
+            if cfg.select_every and ((it + 1) % cfg.select_every == 0 or last):
+                escape = held_out_escape(
+                    ts, skeleton.fill(weights), cfg.ppo, select_key, cfg.select_episodes
+                )
+                metrics["held_out_escape"] = escape
+                if not selection["escape"] or escape > max(selection["escape"]):
+                    selection.update(selected_iteration=it + 1, selected_escape=escape)
+                    save()
+                selection["iterations"].append(it + 1)
+                selection["escape"].append(escape)
+                write_json(cfg.out / SELECTION_FILE, selection)
             metrics["time_s"] = time.perf_counter() - clock0
             log.write(it + 1, int(ts.env_steps), metrics)
             update(it + 1, f"escaped {metrics['success_rate']:.2f}")
-            if (it + 1) % cfg.checkpoint_every == 0 or it + 1 == total_iters:
-                net = evader_net_of(
-                    ts, header, cfg.turn_limit_rad, cfg.action_frame, cfg.fov_rad, cfg.speed_action
-                )
-                save_evader(path, net)
+            if not cfg.select_every and ((it + 1) % cfg.checkpoint_every == 0 or last):
+                save()
     finally:
         log.close()
     return metrics
