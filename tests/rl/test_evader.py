@@ -317,18 +317,21 @@ def test_select_every_keeps_the_best_held_out_iterate(tmp_path):
         out=tmp_path,
         ppo=TINY,
         world=world,
-        select_every=1,
+        select_every=2,
         select_episodes=6,
     )
     metrics = train_evader(cfg)
     sel = json.loads((tmp_path / SELECTION_FILE).read_text())
-    assert sel["iterations"] == [1, 2, 3] and sel["episodes"] == 6
+    assert sel["iterations"] == [2, 3] and sel["episodes"] == 6  # every 2nd, and the last
     assert all(round(e * 6, 6) == int(round(e * 6)) for e in sel["escape"])  # shares of 6
     best = int(np.argmax(sel["escape"]))  # the first of equals: only a better one replaces it
-    assert (sel["selected_iteration"], sel["selected_escape"]) == (best + 1, sel["escape"][best])
+    chosen = sel["iterations"][best]
+    assert (sel["selected_iteration"], sel["selected_escape"]) == (chosen, sel["escape"][best])
     assert metrics["held_out_escape"] == sel["escape"][-1]
-    header = read_header(tmp_path / EVADER_CHECKPOINT)
-    assert header["iteration"] == best + 1
+    assert read_header(tmp_path / EVADER_CHECKPOINT)["iteration"] == chosen
+    log = (tmp_path / "metrics.csv").read_text().splitlines()
+    column = log[0].split(",").index("held_out_escape")
+    assert [r.split(",")[column] for r in log[1:]] == ["nan", *map(str, sel["escape"])]
     # The held-out episodes are the same for every candidate: a state scored twice agrees.
     env = evader_env(world, pursuit_policy(world))
     init, iterate, _ = make_train(env, TINY)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import math
 import time
 from pathlib import Path
 from typing import Any
@@ -322,6 +323,8 @@ def train_evader(cfg: EvaderTrainCfg, progress: Progress | None = None) -> dict[
             metrics = {k: float(v) for k, v in jax.device_get(m).items()}
             check_finite(ts.params, ts.norm, metrics, it + 1, path, None)
             last = it + 1 == total_iters
+            if cfg.select_every:  # a column of its own, empty between candidates
+                metrics["held_out_escape"] = math.nan
             if cfg.select_every and ((it + 1) % cfg.select_every == 0 or last):
                 escape = held_out_escape(
                     ts, skeleton.fill(weights), cfg.ppo, select_key, cfg.select_episodes
