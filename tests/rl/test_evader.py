@@ -16,6 +16,7 @@ from dyncatch.policies.pursuit import pursuit_policy
 from dyncatch.rl.config import PPOCfg
 from dyncatch.rl.evader import EvaderRewardCfg, evader_env
 from dyncatch.rl.evader_train import (
+    LAST_CHECKPOINT,
     SELECTION_FILE,
     EvaderTrainCfg,
     evader_net_of,
@@ -329,6 +330,7 @@ def test_select_every_keeps_the_best_held_out_iterate(tmp_path):
     assert (sel["selected_iteration"], sel["selected_escape"]) == (chosen, sel["escape"][best])
     assert metrics["held_out_escape"] == sel["escape"][-1]
     assert read_header(tmp_path / EVADER_CHECKPOINT)["iteration"] == chosen
+    assert read_header(tmp_path / LAST_CHECKPOINT)["iteration"] == 3
     log = (tmp_path / "metrics.csv").read_text().splitlines()
     column = log[0].split(",").index("held_out_escape")
     assert [r.split(",")[column] for r in log[1:]] == ["nan", *map(str, sel["escape"])]

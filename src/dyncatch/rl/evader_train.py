@@ -80,8 +80,9 @@ class EvaderTrainCfg:
     end) the deterministic evader plays --select-episodes held-out episodes of its training
     world (keys of their own, the same for every candidate) and evader.safetensors is
     rewritten only when its escape rate beats every earlier one; selection.json records
-    each candidate. 0 (default): the last iterate, written every --checkpoint-every. A
-    reading for issue 34: evader training peaks early and then declines (docs/evaders.md)."""
+    each candidate, evader_last.safetensors the last iterate. 0 (default): the last
+    iterate, written every --checkpoint-every. A reading for issue 34: evader training
+    peaks early and then declines (docs/evaders.md)."""
     select_episodes: int = 128
     """Held-out episodes per candidate of --select-every (a binomial error of about 0.04 at
     128)."""
@@ -248,6 +249,9 @@ def evader_iterate(weights: tuple, ts: TrainState, skeleton: Skeleton, ppo: PPOC
 SELECTION_FILE = "selection.json"
 """--select-every's record in the run folder: each candidate's iteration and held-out escape
 rate, and the one kept (``selected_iteration``, ``selected_escape``)."""
+LAST_CHECKPOINT = "evader_last.safetensors"
+"""With --select-every, the last iterate beside the kept one (evader.safetensors), so the two
+can be compared on the same seed."""
 SELECT_STREAM = 0x5E1EC7
 """The held-out selection episodes' keys are the training seed folded with this."""
 
@@ -311,11 +315,11 @@ def train_evader(cfg: EvaderTrainCfg, progress: Progress | None = None) -> dict[
     selection: dict = {"episodes": cfg.select_episodes, "iterations": [], "escape": []}
     clock0 = time.perf_counter()
 
-    def save():
+    def save(to=path):
         net = evader_net_of(
             ts, header, cfg.turn_limit_rad, cfg.action_frame, cfg.fov_rad, cfg.speed_action
         )
-        save_evader(path, net)
+        save_evader(to, net)
 
     try:
         for it in range(total_iters):
@@ -336,6 +340,8 @@ def train_evader(cfg: EvaderTrainCfg, progress: Progress | None = None) -> dict[
                 selection["iterations"].append(it + 1)
                 selection["escape"].append(escape)
                 write_json(cfg.out / SELECTION_FILE, selection)
+                if last:
+                    save(cfg.out / LAST_CHECKPOINT)
             metrics["time_s"] = time.perf_counter() - clock0
             log.write(it + 1, int(ts.env_steps), metrics)
             update(it + 1, f"escaped {metrics['success_rate']:.2f}")
