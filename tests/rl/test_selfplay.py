@@ -259,6 +259,8 @@ class TestBadInput:
             ({"compare": ("rl", "rl")}, "--compare rl rl"),
             ({"compare": ("sp_rl", "rll")}, "--compare sp_rl rll"),
             ({"evader_fov_rad": 0.0}, "--evader-fov-rad"),
+            ({"evader_select_every": -1}, "--evader-select-every -1"),
+            ({"evader_select_episodes": 0}, "--evader-select-episodes 0"),
         ],
     )
     def test_names_the_flag(self, tmp_path, fields, words):
@@ -271,8 +273,14 @@ class TestBadInput:
         assert "--rounds 0" in capsys.readouterr().err
 
 
-def test_every_evader_gets_the_studys_speed_action_and_field_of_view(tmp_path):
-    cfg = tiny(tmp_path / "x", evader_speed_action=True, evader_fov_rad=2.0)
+def test_every_evader_gets_the_studys_speed_action_field_of_view_and_selection(tmp_path):
+    cfg = tiny(
+        tmp_path / "x",
+        evader_speed_action=True,
+        evader_fov_rad=2.0,
+        evader_select_every=5,
+        evader_select_episodes=7,
+    )
     run = selfplay.pursuer_runs(cfg, 0, "rl")[0]
     for ev in (
         selfplay.evader_cfg(cfg, 0),
@@ -280,8 +288,10 @@ def test_every_evader_gets_the_studys_speed_action_and_field_of_view(tmp_path):
         selfplay.exploit_cfg(cfg, run, 0),
     ):
         assert (ev.speed_action, ev.fov_rad) == (True, 2.0)
+        assert (ev.select_every, ev.select_episodes) == (5, 7)
     plain = selfplay.evader_cfg(tiny(tmp_path / "y"), 0)
     assert (plain.speed_action, plain.fov_rad) == (False, 2 * math.pi)
+    assert plain.select_every == 0
 
 
 def test_exploitability_by_hand():

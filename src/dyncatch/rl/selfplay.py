@@ -124,6 +124,8 @@ def evader_cfg(cfg: SelfPlayCfg, k: int) -> EvaderTrainCfg:
         out=evader_path(cfg.out, k),
         fov_rad=cfg.evader_fov_rad,
         speed_action=cfg.evader_speed_action,
+        select_every=cfg.evader_select_every,
+        select_episodes=cfg.evader_select_episodes,
         reward=cfg.reward,
         ppo=cfg.evader_ppo,
         world=cfg.world,

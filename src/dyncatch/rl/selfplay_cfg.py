@@ -75,6 +75,13 @@ class SelfPlayCfg:
     evader_fov_rad: float = FULL_VIEW_RAD
     """Every evader's field of view, rad (dyncatch evader train --fov-rad); default 2 pi:
     it sees the robot wherever it is."""
+    evader_select_every: int = 0
+    """Every evader (round and best-response ones) keeps its best held-out iterate, scored
+    every this many iterations (dyncatch evader train --select-every); default 0: the last
+    iterate."""
+    evader_select_episodes: int = 128
+    """Held-out episodes per candidate of --evader-select-every (dyncatch evader train
+    --select-episodes)."""
     reward: EvaderRewardCfg = EvaderRewardCfg()
     """Every evader's reward (dyncatch.rl.evader.EvaderRewardCfg)."""
     evader_ppo: PPOCfg = EVADER_PPO
@@ -136,6 +143,12 @@ def validate_selfplay(cfg: SelfPlayCfg) -> None:
     if cfg.pursuer_eval_every < 0:
         raise ValueError("--pursuer-eval-every must be >= 0 (0: no evaluation in training)")
     check_fov(cfg.evader_fov_rad, "--evader-fov-rad")
+    if cfg.evader_select_every < 0 or cfg.evader_select_episodes < 1:
+        raise ValueError(
+            f"--evader-select-every {cfg.evader_select_every} / --evader-select-episodes "
+            f"{cfg.evader_select_episodes}: give --evader-select-every >= 0 (0: the last "
+            "iterate) and --evader-select-episodes >= 1"
+        )
     validate_ppo(cfg.evader_ppo)
     validate_ppo(cfg.pursuer_ppo)
     league = league_world(cfg, ())
