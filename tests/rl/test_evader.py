@@ -334,12 +334,15 @@ def test_select_every_keeps_the_best_held_out_iterate(tmp_path):
     log = (tmp_path / "metrics.csv").read_text().splitlines()
     column = log[0].split(",").index("held_out_escape")
     assert [r.split(",")[column] for r in log[1:]] == ["nan", *map(str, sel["escape"])]
-    # The held-out episodes are the same for every candidate: a state scored twice agrees.
+    # The score is the deterministic evader's (the mean action, as deployed): the policy's
+    # spread changes nothing.
     env = evader_env(world, pursuit_policy(world))
-    init, iterate, _ = make_train(env, TINY)
+    init, _, net = make_train(env, TINY)
     ts = jax.jit(init)(jax.random.key(0))
+    wide = ts.replace(params=jax.tree.map(lambda x: x, ts.params))
+    wide.params["params"]["log_std"] = ts.params["params"]["log_std"] + 3.0
     key = jax.random.key(3)
-    assert held_out_escape(ts, env, TINY, key, 6) == held_out_escape(ts, env, TINY, key, 6)
+    assert held_out_escape(ts, net, env, key, 16) == held_out_escape(wide, net, env, key, 16)
 
 
 @pytest.mark.parametrize(("field", "value"), [("select_every", -1), ("select_episodes", 0)])

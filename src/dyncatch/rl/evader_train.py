@@ -13,11 +13,9 @@ import functools
 import math
 import time
 from pathlib import Path
-from typing import Any
 
 import jax
 import numpy as np
-from flax import struct
 
 from dyncatch.evaluation.episodes import run_episodes
 from dyncatch.policies.registry import BASELINES
@@ -26,9 +24,8 @@ from dyncatch.rl.evader import EvaderRewardCfg, Skeleton, evader_env, split_arra
 from dyncatch.rl.guard import check_finite
 from dyncatch.rl.logging import MetricLog
 from dyncatch.rl.networks import ActorCritic
-from dyncatch.rl.normalize import RunningNorm
-from dyncatch.rl.policy import load_run
-from dyncatch.rl.train import TrainState, flat_obs, make_train, to_command
+from dyncatch.rl.policy import LearnedPolicy, load_run
+from dyncatch.rl.train import TrainState, as_stepper, flat_obs, make_train
 from dyncatch.sim.behaviors.evader_net import (
     EVADER_CHECKPOINT,
     FULL_VIEW_RAD,
@@ -256,31 +253,12 @@ SELECT_STREAM = 0x5E1EC7
 """The held-out selection episodes' keys are the training seed folded with this."""
 
 
-@struct.dataclass
-class MeanEvader:
-    """A training state's evader as a policy of its own environment: the mean action, as
-    the ``learned`` behaviour deploys it. A pytree (weights and environment are arguments),
-    so every candidate of a run shares one compiled evaluation."""
-
-    net: ActorCritic = struct.field(pytree_node=False)
-    params: dict
-    norm: RunningNorm
-    env: Any
-    is_pytree_policy: bool = struct.field(pytree_node=False, default=True)
-
-    def init_carry(self, state, obs) -> tuple:
-        return ()
-
-    def step(self, carry, state, obs, key):
-        mean, _, _ = self.net.apply(self.params, self.norm(flat_obs(state, obs)))
-        return carry, to_command(mean, self.env)
-
-
-def held_out_escape(ts: TrainState, env, ppo: PPOCfg, key: jax.Array, episodes: int) -> float:
-    """The escape rate of the training state's deterministic evader (``MeanEvader``) over
-    ``episodes`` fresh episodes of ``env`` from ``key``."""
-    _, _, net = make_train(env, ppo)
-    policy = MeanEvader(net, ts.params, ts.norm, env)
+def held_out_escape(ts: TrainState, net: ActorCritic, env, key: jax.Array, episodes: int) -> float:
+    """The escape rate of the training state's deterministic evader (the mean action, as the
+    ``learned`` behaviour deploys it; ``net`` is ``make_train``'s) over ``episodes`` fresh
+    episodes of ``env`` from ``key``. The policy is a pytree, so every candidate of a run
+    shares one compiled evaluation."""
+    policy = LearnedPolicy(net, ts.params, ts.norm, as_stepper(flat_obs), env)
     return float(np.mean(np.asarray(run_episodes(policy, key, env, episodes)["success"])))
 
 
@@ -312,6 +290,8 @@ def train_evader(cfg: EvaderTrainCfg, progress: Progress | None = None) -> dict[
     log = MetricLog(cfg.out, 0, ("csv",), header)
     metrics: dict[str, float] = {}
     select_key = jax.random.fold_in(jax.random.key(cfg.seed), SELECT_STREAM)
+    select_env = skeleton.fill(weights)
+    select_net = make_train(select_env, cfg.ppo)[2]
     selection: dict = {"episodes": cfg.select_episodes, "iterations": [], "escape": []}
     clock0 = time.perf_counter()
 
@@ -331,7 +311,7 @@ def train_evader(cfg: EvaderTrainCfg, progress: Progress | None = None) -> dict[
                 metrics["held_out_escape"] = math.nan
             if cfg.select_every and ((it + 1) % cfg.select_every == 0 or last):
                 escape = held_out_escape(
-                    ts, skeleton.fill(weights), cfg.ppo, select_key, cfg.select_episodes
+                    ts, select_net, select_env, select_key, cfg.select_episodes
                 )
                 metrics["held_out_escape"] = escape
                 if not selection["escape"] or escape > max(selection["escape"]):

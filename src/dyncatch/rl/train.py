@@ -46,14 +46,14 @@ def flat_obs(state: EnvState, obs: Obs) -> jax.Array:
     return obs.flat
 
 
+@struct.dataclass
 class Stateless:
     """A plain ``ObsFn`` seen through the carry seam of ``rl.methods.MethodObs``: the carry
-    is ``()`` and ``step`` is the function."""
+    is ``()`` and ``step`` is the function. A pytree without leaves (the function is
+    static), so a policy holding it can be a jit argument."""
 
+    fn: ObsFn = struct.field(pytree_node=False)
     stateful = False
-
-    def __init__(self, fn: ObsFn):
-        self.fn = fn
 
     def init_carry(self, state: EnvState) -> tuple:
         return ()
