@@ -191,16 +191,16 @@ class TestSeeding:
 
 
 def test_matches_pure_simulator(env):
-    """20 steps of CatchEnv equal eager sim.env.reset/step from PRNGKey(seed)."""
+    """20 steps of CatchEnv equal sim.env.reset/step from PRNGKey(seed), each jitted on its
+    own (eagerly, every operation of a step compiles on its own)."""
     seed, actions = 11, fixed_actions()
     obs, rewards, infos = rollout(env, seed, actions)
 
-    state = sim_env.reset(jax.random.PRNGKey(seed), env.world)
-    np.testing.assert_allclose(obs[0], sim_env.observe(state, env.world).flat, atol=1e-5)
+    reset, observe, step = (jax.jit(f) for f in (sim_env.reset, sim_env.observe, sim_env.step))
+    state = reset(jax.random.PRNGKey(seed), env.world)
+    np.testing.assert_allclose(obs[0], observe(state, env.world).flat, atol=1e-5)
     for t, action in enumerate(actions):
-        state, ref_obs, ref_reward, ref_done, ref_info = sim_env.step(
-            state, jnp.asarray(action), env.world
-        )
+        state, ref_obs, ref_reward, ref_done, ref_info = step(state, jnp.asarray(action), env.world)
         np.testing.assert_allclose(obs[t + 1], ref_obs.flat, atol=1e-5)
         np.testing.assert_allclose(rewards[t], ref_reward, atol=1e-5)
         np.testing.assert_allclose(infos[t]["distance_m"], ref_info["distance_m"], atol=1e-5)

@@ -13,6 +13,9 @@ N, T = 4, 40
 # One jitted function for the module: a new jit(vmap(...)) per call would compile the same
 # program again for each trajectory.
 BATCHED_STEP = jax.jit(jax.vmap(env.step, in_axes=(0, 0, None)))
+# The resets as programs too: eagerly, every operation of a reset compiles on its own.
+BATCH_RESET = jax.jit(vec.batch_reset, static_argnums=2)
+RESET = jax.jit(env.reset)
 
 
 def _actions():
@@ -20,7 +23,7 @@ def _actions():
 
 
 def _batched(key):
-    state = vec.batch_reset(key, JaxCatchEnv(CFG), N)
+    state = BATCH_RESET(key, JaxCatchEnv(CFG), N)
     out = []
     for a in _actions():
         state, obs, reward, done, info = BATCHED_STEP(state, a, CFG)
@@ -43,7 +46,7 @@ def test_jit_vmap_step_equals_a_plain_loop_over_envs():
     step = jax.jit(env.step)
     actions = _actions()
     for i in range(N):
-        s = env.reset(keys[i], CFG)
+        s = RESET(keys[i], CFG)
         for t in range(T):
             s, obs, reward, done, info = step(s, actions[t, i], CFG)
             np.testing.assert_allclose(obs.flat, batched[t][0][i], atol=1e-4, rtol=1e-5)
@@ -52,7 +55,7 @@ def test_jit_vmap_step_equals_a_plain_loop_over_envs():
 
 def test_auto_reset_starts_a_new_episode_where_one_ends():
     cfg = CFG.replace(episode=CFG.episode.replace(duration_s=0.2))  # 10 steps
-    state = vec.batch_reset(jax.random.key(0), JaxCatchEnv(cfg), 3)
+    state = BATCH_RESET(jax.random.key(0), JaxCatchEnv(cfg), 3)
     step = jax.jit(vec.batch_step)
     for _t in range(10):
         state, obs, reward, done, info = step(state, jnp.zeros((3, 3)), JaxCatchEnv(cfg))

@@ -39,8 +39,6 @@ def _read(name: str, world: WorldCfg = CFG) -> WorldCfg:
 def _pursuit_rollout(cfg: WorldCfg, n: int = 4, steps: int = 150, seed: int = 11):
     """The scripted pursuer in ``n`` environments from a fixed key, no auto-reset."""
     policy = pursuit_policy(cfg)
-    s = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(jax.random.key(seed), n), cfg)
-    obs = jax.vmap(env.observe, in_axes=(0, None))(s, cfg)
     vstep = jax.vmap(env.step, in_axes=(0, 0, None))
 
     def body(carry, _):
@@ -48,7 +46,12 @@ def _pursuit_rollout(cfg: WorldCfg, n: int = 4, steps: int = 150, seed: int = 11
         s, obs, r, _, info = vstep(s, jax.vmap(lambda o: policy(o, None))(obs), cfg)
         return (s, obs), (obs.flat, r, info["success"], s.target.xy_m + s.origin_xy_m)
 
-    return jax.jit(lambda s, o: jax.lax.scan(body, (s, o), None, length=steps)[1])(s, obs)
+    def rollout(key):  # one program, the reset included (eagerly, op by op)
+        s = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(key, n), cfg)
+        obs = jax.vmap(env.observe, in_axes=(0, None))(s, cfg)
+        return jax.lax.scan(body, (s, obs), None, length=steps)[1]
+
+    return jax.jit(rollout)(jax.random.key(seed))
 
 
 # Recorded at commit 3f68e95, before these readings existed, under the tests' XLA flags
@@ -85,7 +88,8 @@ def _old_reactive_heading(target, robot, cfg, key):
 
 def test_the_default_reactive_heading_is_the_old_formula_bit_for_bit():
     cfg = CFG.with_speed(1.0)
-    states = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(jax.random.key(4), 256), cfg)
+    reset = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))  # one program, not op by op
+    states = reset(jax.random.split(jax.random.key(4), 256), cfg)
     keys = jax.random.split(jax.random.key(5), 256)
     beh = get_behavior("reactive")
     new = jax.jit(jax.vmap(lambda s, k: beh.desired_heading(s.target, s.robot, cfg, k)[0]))

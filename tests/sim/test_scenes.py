@@ -155,23 +155,37 @@ def test_random_actions_never_push_a_body_into_an_obstacle_or_wall(scene, behavi
     states, infos, rewards, _ = random_rollout(jax.random.key(seed), cfg, 16, 300)
     k = {"room_0": 0, "room_4": 4, "room_8": 8}.get(scene, 25)
     assert states.obstacles.centre_xy_m.shape == (300, 16, k, 2)
-    leaves = jax.tree.leaves((states, infos, rewards))
-    assert all(bool(jnp.all(jnp.isfinite(x))) for x in leaves if x.dtype != bool)
-    for xy, r in (
-        (states.robot.xy_m, cfg.base.radius_m),
-        (states.target.xy_m, cfg.target.radius_m),
-    ):
-        assert np.asarray(_sd(states, xy, r)).min(initial=np.inf) >= -1e-4
+    finite, bodies, centres, scan = _what_the_collision_test_reads(states, infos, rewards, cfg)
+    assert bool(finite)
+    for (sd, w), r in zip(bodies, (cfg.base.radius_m, cfg.target.radius_m), strict=True):
+        assert np.asarray(sd).min(initial=np.inf) >= -1e-4
         if get_scene(scene).walls:
-            w = np.asarray(world_xy(states, xy))
+            w = np.asarray(w)
             assert w.min() >= r - 1e-4 and w.max() <= cfg.arena.size_m - r + 1e-4
     if get_scene(scene).walls:  # the rooms' obstacles stay where they are in the world
-        c = np.asarray(world_xy(states, jnp.moveaxis(states.obstacles.centre_xy_m, 2, 0)))
+        c = np.asarray(centres)
         np.testing.assert_allclose(c, np.broadcast_to(c[:, :1], c.shape), atol=1e-3)
-    scan = np.asarray(
-        jax.vmap(jax.vmap(env.observe, in_axes=(0, None)), in_axes=(0, None))(states, cfg).scan_m
-    )
+    scan = np.asarray(scan)
     assert scan.shape == (300, 16, 32) and scan.min() >= 0 and scan.max() <= 10.0
+
+
+@jax.jit
+def _what_the_collision_test_reads(states, infos, rewards, cfg):
+    """In one program (eagerly, each operation compiled on its own): whether every float is
+    finite; each body's signed distance to every obstacle and its world position; the
+    obstacles' world centres; the scan of every state."""
+    leaves = jax.tree.leaves((states, infos, rewards))
+    finite = jnp.all(jnp.stack([jnp.all(jnp.isfinite(x)) for x in leaves if x.dtype != bool]))
+    bodies = [
+        (_sd(states, xy, r), world_xy(states, xy))
+        for xy, r in (
+            (states.robot.xy_m, cfg.base.radius_m),
+            (states.target.xy_m, cfg.target.radius_m),
+        )
+    ]
+    centres = world_xy(states, jnp.moveaxis(states.obstacles.centre_xy_m, 2, 0))
+    scan = jax.vmap(jax.vmap(env.observe, in_axes=(0, None)), in_axes=(0, None))(states, cfg)
+    return finite, bodies, centres, scan.scan_m
 
 
 def _flee_past_a_tree(lookahead_m: float):

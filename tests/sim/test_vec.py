@@ -1,6 +1,8 @@
 """Auto-reset (``sim.vec``): fresh episodes computed only where one ended equal the ungated
 reset computed everywhere."""
 
+import functools
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -14,8 +16,10 @@ ENV = JaxCatchEnv(WorldCfg())
 N = 256
 
 
+@functools.partial(jax.jit, static_argnums=0)
 def _ending(count: int, key: jax.Array | None = None):
-    """A batch of N fresh episodes of which ``count`` time out on the next step."""
+    """A batch of N fresh episodes of which ``count`` time out on the next step (one program
+    per count: run eagerly, every operation of the reset compiled on its own)."""
     state = vec.batch_reset(jax.random.key(0) if key is None else key, ENV, N)
     last = ENV.world.episode.max_steps - 1
     ends = jnp.zeros(N, bool).at[jax.random.permutation(jax.random.key(1), N)[:count]].set(True)
@@ -97,10 +101,13 @@ def test_nested_vmap_over_seeds(monkeypatch):
 def test_a_reset_state_has_the_types_of_a_stepped_one(scene):
     # A jitted function of states (PPO's iteration) compiles once for both: a weakly typed
     # leaf in the reset state alone made every training run compile its iteration twice.
+    # The types a jit sees, weak types included, without running either (eval_shape traces).
     env = JaxCatchEnv(WorldCfg().for_scene(scene))
-    reset = vec.batch_reset(jax.random.key(0), env, 4)
-    stepped = vec.batch_step(reset, jnp.zeros((4, 3)), env)[0]
+    reset = jax.eval_shape(lambda k: vec.batch_reset(k, env, 4), jax.random.key(0))
+    stepped = jax.eval_shape(lambda s: vec.batch_step(s, jnp.zeros((4, 3)), env)[0], reset)
     assert jax.tree.structure(reset) == jax.tree.structure(stepped)
     flat_reset = jax.tree_util.tree_flatten_with_path(reset)[0]
     for (path, a), b in zip(flat_reset, jax.tree.leaves(stepped), strict=True):
-        assert jax.typeof(a) == jax.typeof(b), jax.tree_util.keystr(path)
+        assert (a.shape, a.dtype, a.weak_type) == (b.shape, b.dtype, b.weak_type), (
+            jax.tree_util.keystr(path)
+        )
