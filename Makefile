@@ -7,6 +7,14 @@ export JAX_COMPILATION_CACHE_DIR := $(CURDIR)/.cache/jax
 export JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS := 0.5
 export MPLBACKEND := Agg
 export XLA_FLAGS ?= --xla_cpu_multi_thread_eigen=true
+# Python writes its bytecode caches (__pycache__, ignored by git) even where the shell sets
+# PYTHONDONTWRITEBYTECODE: uv installs no .pyc, so every process the tests start (the two
+# pytest workers, Ray's workers, the CLI and full-body subprocesses) would compile JAX, Flax
+# and the rest from source, and pytest would rewrite every test module's asserts in each
+# worker. Importing JAX, Flax, Optax and the CLI took 8.1 s that way against 3.8 s from the
+# caches; collecting the tests spent 6.9 s of 20 s (under cProfile) compiling sources (the
+# 2-core EPYC, 2026-12-06; docs/performance.md, "The test suite").
+unexport PYTHONDONTWRITEBYTECODE
 
 .PHONY: demo test test-all lint format bench examples clean venv
 
