@@ -13,7 +13,7 @@ import pytest
 from dyncatch.sim import arm
 from dyncatch.sim import env as sim_env
 from dyncatch.sim.config import WorldCfg
-from dyncatch.sim.gate import compact_sizes, reference_where, where_active
+from dyncatch.sim.gate import MIN_COMPACT_BATCH, compact_sizes, reference_where, where_active
 
 CFG = WorldCfg()
 A, B = CFG.arm, CFG.base
@@ -55,12 +55,40 @@ def _batched(fn, depth):
 
 
 def test_compact_sizes_by_hand():
-    # 4096 / 64 = 64 and 4096 / 8 = 512; 100 / 64 rounds up to 2; never 0, never the batch.
+    # 4096 / 64 = 64 and 4096 / 8 = 512; 100 / 64 rounds up to 2; never 0, never the batch;
+    # none below MIN_COMPACT_BATCH (64) environments.
     assert compact_sizes(4096, FRACTIONS) == [64, 512]
     assert compact_sizes(100, FRACTIONS) == [2, 13]
-    assert compact_sizes(8, FRACTIONS) == [1]
+    assert compact_sizes(64, FRACTIONS) == [1, 8]
+    assert compact_sizes(63, FRACTIONS) == []
+    assert compact_sizes(8, FRACTIONS) == []
     assert compact_sizes(1, FRACTIONS) == []
     assert compact_sizes(4096, ()) == []
+
+
+def _cond_branches(gated, batch):
+    """The branch counts of the conds in the jaxpr of ``gated`` vmapped over ``batch``."""
+    jaxpr = jax.make_jaxpr(jax.vmap(gated, in_axes=CFG_AXIS))(
+        *_inputs(jax.random.key(0), (batch,), 0.0)[:4], A
+    )
+    return [len(e.params["branches"]) for e in _eqns(jaxpr.jaxpr) if e.primitive.name == "cond"]
+
+
+def test_a_small_batch_runs_nobody_or_everyone():
+    # Below MIN_COMPACT_BATCH: two branches (none active, the whole batch), equal to the
+    # reference with none, one, some and all active; fractions () is no gate at all.
+    batch = MIN_COMPACT_BATCH // 4
+    gated = where_active(arm.dls_step, FRACTIONS)
+    assert _cond_branches(gated, batch) == [2]
+    assert _cond_branches(where_active(arm.dls_step, ()), batch) == []
+    _, q, gripper, goal = _inputs(jax.random.key(9), (batch,), 0.0)
+    ref_fn, gated_fn = _batched(_reference, 1), _batched(gated, 1)
+    for count in (0, 1, 5, batch):
+        active = jnp.arange(batch) < count
+        out = gated_fn(active, q, gripper, goal, A)
+        np.testing.assert_array_equal(out, ref_fn(active, q, gripper, goal, A))
+        assert bool(jnp.all(out[~active] == 0.0))
+        assert bool(jnp.all(jnp.any(out[active] != 0.0, axis=-1)))  # the IK ran on each
 
 
 class TestOneBatch:

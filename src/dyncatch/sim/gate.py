@@ -6,7 +6,9 @@ environment; this one gathers the active environments into a compact sub-batch, 
 ``fn`` on those rows only, and scatters the results back (zeros elsewhere). The sub-batch
 has ``K = ceil(f * B)`` rows for the smallest ``f`` in ``fractions`` whose ``K`` holds every
 active environment; when more are active than the largest ``K``, the whole batch is computed
-(``lax.switch``: one branch runs). Nested ``vmap``s (seeds around environments) are folded
+(``lax.switch``: one branch runs). Below ``MIN_COMPACT_BATCH`` environments there are no
+sub-batches: ``fn`` runs on the whole batch when any environment is active. ``fractions``
+``()`` is no gate (the reference ``where``). Nested ``vmap``s (seeds around environments) are folded
 into one batch of all their environments, so the gate works at any depth; arguments that are
 not batched (the config) are passed to ``fn`` as they are. Each environment's result is
 bit-identical to the reference ``where`` under one ``vmap`` (the same element-wise ``fn`` of
@@ -29,10 +31,21 @@ import jax
 import jax.numpy as jnp
 from jax.custom_batching import custom_vmap
 
+MIN_COMPACT_BATCH = 64
+"""Batches below this many environments get no compact sub-batches: the gate is then "nobody
+active, or the whole batch". Each sub-batch is one more compiled copy of ``fn``; below 64
+environments they buy little time per step and cost more in compilation (an environment
+step's 500-step scan, pursuit commands, the EPYC: compiled in 2.9 s against 4.2 s at 8
+environments, run in 22.8 against 10.9 us a step; at 32 environments 2.7 against 5.9 s,
+54.1 against 50.9 us; at 64, 2.7 against 5.8 s but 132 against 46 us; docs/performance.md)."""
+
 
 def compact_sizes(batch: int, fractions: Sequence[float]) -> list[int]:
     """Rows of the compact sub-batches for a batch of ``batch`` environments: ascending,
-    each >= 1 and below ``batch`` (a sub-batch as large as the batch is the batch)."""
+    each >= 1 and below ``batch`` (a sub-batch as large as the batch is the batch); none
+    below ``MIN_COMPACT_BATCH`` environments."""
+    if batch < MIN_COMPACT_BATCH:
+        return []
     return sorted({k for f in fractions if (k := max(1, math.ceil(f * batch))) < batch})
 
 
@@ -114,9 +127,9 @@ def _flat_gate(fn: Callable, treedef, batched: tuple[bool, ...], fractions) -> C
 
     @custom_vmap
     def gate(active, *leaves):
-        sizes = compact_sizes(active.shape[0], fractions)
-        if not sizes:
+        if not fractions:  # no gate: the reference
             return everyone(active, leaves)
+        sizes = compact_sizes(active.shape[0], fractions)
         # Nothing when no environment is active, else the smallest sub-batch that holds every
         # active one, else the whole batch.
         branches = [partial(nobody, active, leaves)]
