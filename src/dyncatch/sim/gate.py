@@ -7,10 +7,10 @@ environment; this one gathers the active environments into a compact sub-batch, 
 has ``K = ceil(f * B)`` rows for the smallest ``f`` in ``fractions`` whose ``K`` holds every
 active environment; when more are active than the largest ``K``, the whole batch is computed
 (``lax.switch``: one branch runs). Below ``MIN_COMPACT_BATCH`` environments there are no
-sub-batches: ``fn`` runs on the whole batch when any environment is active. ``fractions``
-``()`` is no gate (the reference ``where``). Nested ``vmap``s (seeds around environments) are folded
-into one batch of all their environments, so the gate works at any depth; arguments that are
-not batched (the config) are passed to ``fn`` as they are. Each environment's result is
+sub-batches: ``fn`` runs on the whole batch when any environment is active; ``fractions``
+``()`` is no gate (the reference ``where``). Nested ``vmap``s (seeds around environments) are
+folded into one batch of all their environments, so the gate works at any depth; arguments
+that are not batched (the config) are passed to ``fn`` as they are. Each environment's result is
 bit-identical to the reference ``where`` under one ``vmap`` (the same element-wise ``fn`` of
 the same inputs); under nested ``vmap``s it equals the flat reference bit for bit, which
 XLA:CPU itself compiles to within float rounding of the nested one (``tests/sim/test_gate.py``).
@@ -34,10 +34,10 @@ from jax.custom_batching import custom_vmap
 MIN_COMPACT_BATCH = 64
 """Batches below this many environments get no compact sub-batches: the gate is then "nobody
 active, or the whole batch". Each sub-batch is one more compiled copy of ``fn``; below 64
-environments they buy little time per step and cost more in compilation (an environment
-step's 500-step scan, pursuit commands, the EPYC: compiled in 2.9 s against 4.2 s at 8
-environments, run in 22.8 against 10.9 us a step; at 32 environments 2.7 against 5.9 s,
-54.1 against 50.9 us; at 64, 2.7 against 5.8 s but 132 against 46 us; docs/performance.md)."""
+environments a rollout must run for tens to hundreds of thousands of batch steps before the
+time they save per step pays back the compilation they add (``benchmarks/gate_small_batch.py``;
+the table in docs/performance.md, "The test suite"). The library trains on 512-4,096
+environments and evaluates 100-500 episodes at once; the tests run 2-32."""
 
 
 def compact_sizes(batch: int, fractions: Sequence[float]) -> list[int]:
