@@ -5,8 +5,10 @@ For each batch size, a jitted 500-step ``lax.scan`` of the batched step (auto-re
 that drive each base toward its target, so that arms reach) is traced, lowered and compiled
 with ``sim.gate.MIN_COMPACT_BATCH`` at 0 (compact sub-batches at every size) and above the
 batch (none: nobody active, or the whole batch), the persistent compilation cache off; then
-each compiled program runs alternately, best of ``--repeats``. The reading of the figures:
-docs/performance.md ("The test suite").
+each compiled program runs alternately, best of ``--repeats``. With ``--gym-steps N`` it also
+times the Gymnasium vector adapter (``CatchVectorEnv``, its default 16 environments, random
+actions) both ways: its first 200 steps (mostly compilation) and the next N. The reading of
+the figures: docs/performance.md ("The test suite").
 """
 
 from __future__ import annotations
@@ -61,10 +63,40 @@ def _compiled(env, num_envs: int, min_batch: int) -> dict:
     return {"fn": compiled, "state": out[0], "trace_lower_s": t1 - t0, "compile_s": t2 - t1}
 
 
+def _gym_vector(min_batch: int, steps: int) -> dict:
+    """``CatchVectorEnv(num_envs=16)`` with ``MIN_COMPACT_BATCH = min_batch``: seconds for its
+    first 200 steps and microseconds a step over the next ``steps``."""
+    import numpy as np
+
+    from dyncatch.gym.vector_env import CatchVectorEnv
+
+    old = gate.MIN_COMPACT_BATCH
+    gate.MIN_COMPACT_BATCH = min_batch
+    jax.clear_caches()  # the adapter's jitted step is module-level: trace it anew
+    try:
+        env = CatchVectorEnv(num_envs=16)
+        env.reset(seed=0)
+        space = env.action_space
+        rng = np.random.default_rng(0)
+        actions = rng.uniform(space.low, space.high, (200 + steps, *space.shape))
+        actions = actions.astype(np.float32)
+        t0 = time.perf_counter()
+        for a in actions[:200]:
+            env.step(a)
+        t1 = time.perf_counter()
+        for a in actions[200:]:
+            env.step(a)
+        t2 = time.perf_counter()
+    finally:
+        gate.MIN_COMPACT_BATCH = old
+    return {"first_200_steps_s": round(t1 - t0, 2), "us_per_step": round(1e6 * (t2 - t1) / steps)}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--num-envs", type=int, nargs="+", default=[8, 32, 64, 128])
     parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--gym-steps", type=int, default=0, help="0: skip the Gymnasium adapter")
     args = parser.parse_args()
     setup_jax()
     jax.config.update("jax_enable_compilation_cache", False)
@@ -88,7 +120,13 @@ def main() -> None:
                     "us_per_step": round(1e6 * best[name] / STEPS, 1),
                 }
             )
-    print(json.dumps({"steps": STEPS, "rows": rows}, indent=1))
+    out = {"steps": STEPS, "rows": rows}
+    if args.gym_steps > 0:
+        out["gym_vector_16"] = {
+            "sub-batches": _gym_vector(0, args.gym_steps),
+            "none": _gym_vector(17, args.gym_steps),
+        }
+    print(json.dumps(out, indent=1))
 
 
 if __name__ == "__main__":
