@@ -19,8 +19,9 @@ from dyncatch.sim.config import ArmCfg, BaseCfg
 IK_COMPACT_FRACTIONS = (1 / 64, 1 / 8)
 """Under ``vmap`` the arm's control step with IK (``sim.env``) runs on a compact sub-batch of
 the environments whose arm is active at some sub-step, 1/64 or 1/8 of the batch, whichever
-holds them all, or on the whole batch when more are active (``sim.gate``). Results do not
-depend on it (``()`` turns the gate off), so it is a constant rather than a config field,
+holds them all, or on the whole batch when more are active (``sim.gate``; below
+``sim.gate.MIN_COMPACT_BATCH`` environments, the whole batch when any is active). Results do
+not depend on it (``()`` turns the gate off), so it is a constant rather than a config field,
 which would enter checkpoint headers and cache keys. The sizes: arms are active in 0.03 % of
 environments under random commands (1/64 holds them) and in 4-5.5 % under the pursuit
 baseline, at most 7.5 % at any step (1/8 holds them); the IK's cost grows with the rows it

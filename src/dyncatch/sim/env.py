@@ -46,7 +46,8 @@ draw exactly what they drew before obstacles existed."""
 LINE_OF_SIGHT_COMPACT_FRACTIONS = (1 / 16, 1 / 8)
 """Under ``vmap`` the camera's line of sight through the obstacles is computed only for the
 environments that take a frame at this step (one step in 25 at 50 Hz and 2 Hz), on a compact
-sub-batch of 1/16 or 1/8 of the batch (``sim.gate``). Episodes that started together take
+sub-batch of 1/16 or 1/8 of the batch (``sim.gate``; below ``MIN_COMPACT_BATCH``
+environments, the whole batch at a frame). Episodes that started together take
 their frames together (the whole batch that step, none the next 24); once catches have
 spread their phases, about 1/25 of the batch does at each step, which 1/16 holds. Results
 do not depend on it; measured in docs/performance.md ("The woods")."""

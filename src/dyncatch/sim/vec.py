@@ -20,7 +20,8 @@ _RESET_STREAM = 1
 RESET_COMPACT_FRACTIONS = (1 / 64, 1 / 8)
 """Under ``vmap`` fresh episodes are computed only for the environments that are done, on a
 compact sub-batch of 1/64 or 1/8 of the batch, or the whole batch when more are done
-(``sim.gate``; ``()`` computes them everywhere). An episode ends in well under 1 % of
+(``sim.gate``; ``()`` computes them everywhere; below ``MIN_COMPACT_BATCH``
+environments, the whole batch when any is done). An episode ends in well under 1 % of
 environment steps, but all at once when a batch started together times out."""
 
 
