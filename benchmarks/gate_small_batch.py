@@ -1,8 +1,8 @@
 """The gate's compact sub-batches at small batches: compile and run time of a batched rollout
 with and without them. ``python benchmarks/gate_small_batch.py [--num-envs 8 32 64 128]``.
 
-For each batch size, a jitted 500-step ``lax.scan`` of the batched step (auto-reset; commands
-that drive each base toward its target, so that arms reach) is traced, lowered and compiled
+For each batch size, a jitted 500-step ``lax.scan`` of the batched step (auto-reset; the
+scripted pursuit, ``policies.pursuit``, so that arms reach) is traced, lowered and compiled
 with ``sim.gate.MIN_COMPACT_BATCH`` at 0 (compact sub-batches at every size) and above the
 batch (none: nobody active, or the whole batch), the persistent compilation cache off; then
 each compiled program runs alternately, best of ``--repeats``. With ``--gym-steps N`` it also
@@ -14,14 +14,14 @@ the figures: docs/performance.md ("The test suite").
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import time
-from functools import partial
 
 import jax
-import jax.numpy as jnp
 
 import dyncatch.sim.gate as gate
+from dyncatch.policies.pursuit import PursuitCfg, pursuit_action
 from dyncatch.sim.api import JaxCatchEnv
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.vec import batch_reset, batch_step
@@ -30,37 +30,41 @@ from dyncatch.utils.jax_setup import setup_jax
 STEPS = 500
 
 
-def _pursue(state, num_envs: int):
-    rel = state.target.xy_m - state.robot.xy_m
-    yaw = jnp.arctan2(rel[:, 1], rel[:, 0]) - state.robot.yaw_rad
-    return jnp.stack([jnp.full(num_envs, 1.5), jnp.zeros(num_envs), 2.0 * yaw], -1)
+@contextlib.contextmanager
+def _min_compact_batch(n: int):
+    """``sim.gate.MIN_COMPACT_BATCH`` set to ``n`` while functions are traced."""
+    old, gate.MIN_COMPACT_BATCH = gate.MIN_COMPACT_BATCH, n
+    try:
+        yield
+    finally:
+        gate.MIN_COMPACT_BATCH = old
 
 
-def _rollout(state, env, num_envs: int):
-    def body(s, _):
-        s, _, reward, done, _ = batch_step(s, _pursue(s, num_envs), env)
-        return s, (reward.sum(), done.sum())
+def _rollout(state, obs, env):
+    pursue = jax.vmap(pursuit_action, in_axes=(0, None, None))
 
-    return jax.lax.scan(body, state, None, length=STEPS)
+    def body(carry, _):
+        s, o = carry
+        s, o, reward, done, _ = batch_step(s, pursue(o, env.world, PursuitCfg()), env)
+        return (s, o), (reward.sum(), done.sum())
+
+    return jax.lax.scan(body, (state, obs), None, length=STEPS)
 
 
 def _compiled(env, num_envs: int, min_batch: int) -> dict:
     """The rollout compiled with ``MIN_COMPACT_BATCH = min_batch``, and its compile times."""
-    old = gate.MIN_COMPACT_BATCH
-    gate.MIN_COMPACT_BATCH = min_batch
-    try:
+    with _min_compact_batch(min_batch):
         state = batch_reset(jax.random.key(0), env, num_envs)
-        fn = jax.jit(partial(_rollout, num_envs=num_envs))  # a new function: traced anew
+        carry = (state, jax.vmap(env.observe)(state))
+        fn = jax.jit(lambda s, o, e: _rollout(s, o, e))  # a new function: traced anew
         t0 = time.perf_counter()
-        lowered = fn.lower(state, env)
+        lowered = fn.lower(*carry, env)
         t1 = time.perf_counter()
         compiled = lowered.compile()
         t2 = time.perf_counter()
-    finally:
-        gate.MIN_COMPACT_BATCH = old
-    out = compiled(state, env)
+    out = compiled(*carry, env)
     jax.block_until_ready(out)
-    return {"fn": compiled, "state": out[0], "trace_lower_s": t1 - t0, "compile_s": t2 - t1}
+    return {"fn": compiled, "carry": out[0], "trace_lower_s": t1 - t0, "compile_s": t2 - t1}
 
 
 def _gym_vector(min_batch: int, steps: int) -> dict:
@@ -70,10 +74,8 @@ def _gym_vector(min_batch: int, steps: int) -> dict:
 
     from dyncatch.gym.vector_env import CatchVectorEnv
 
-    old = gate.MIN_COMPACT_BATCH
-    gate.MIN_COMPACT_BATCH = min_batch
     jax.clear_caches()  # the adapter's jitted step is module-level: trace it anew
-    try:
+    with _min_compact_batch(min_batch):
         env = CatchVectorEnv(num_envs=16)
         env.reset(seed=0)
         space = env.action_space
@@ -87,8 +89,6 @@ def _gym_vector(min_batch: int, steps: int) -> dict:
         for a in actions[200:]:
             env.step(a)
         t2 = time.perf_counter()
-    finally:
-        gate.MIN_COMPACT_BATCH = old
     return {"first_200_steps_s": round(t1 - t0, 2), "us_per_step": round(1e6 * (t2 - t1) / steps)}
 
 
@@ -108,7 +108,7 @@ def main() -> None:
         for _ in range(args.repeats):
             for name, b in built.items():
                 t0 = time.perf_counter()
-                jax.block_until_ready(b["fn"](b["state"], env))
+                jax.block_until_ready(b["fn"](*b["carry"], env))
                 best[name] = min(best[name], time.perf_counter() - t0)
         for name, b in built.items():
             rows.append(

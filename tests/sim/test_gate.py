@@ -66,12 +66,12 @@ def test_compact_sizes_by_hand():
     assert compact_sizes(4096, ()) == []
 
 
-def _cond_branches(gated, batch):
-    """The branch counts of the conds in the jaxpr of ``gated`` vmapped over ``batch``."""
+def _conds(gated, batch):
+    """The cond equations in the jaxpr of ``gated`` vmapped over ``batch`` environments."""
     jaxpr = jax.make_jaxpr(jax.vmap(gated, in_axes=CFG_AXIS))(
         *_inputs(jax.random.key(0), (batch,), 0.0)[:4], A
     )
-    return [len(e.params["branches"]) for e in _eqns(jaxpr.jaxpr) if e.primitive.name == "cond"]
+    return [e for e in _eqns(jaxpr.jaxpr) if e.primitive.name == "cond"]
 
 
 def test_a_small_batch_runs_nobody_or_everyone():
@@ -79,8 +79,8 @@ def test_a_small_batch_runs_nobody_or_everyone():
     # reference with none, one, some and all active; fractions () is no gate at all.
     batch = MIN_COMPACT_BATCH // 4
     gated = where_active(arm.dls_step, FRACTIONS)
-    assert _cond_branches(gated, batch) == [2]
-    assert _cond_branches(where_active(arm.dls_step, ()), batch) == []
+    assert [len(e.params["branches"]) for e in _conds(gated, batch)] == [2]
+    assert _conds(where_active(arm.dls_step, ()), batch) == []
     _, q, gripper, goal = _inputs(jax.random.key(9), (batch,), 0.0)
     ref_fn, gated_fn = _batched(_reference, 1), _batched(gated, 1)
     for count in (0, 1, 5, batch):
@@ -109,10 +109,7 @@ class TestOneBatch:
         # None active computes nothing, 16 fit the 16-row sub-batch, 17 need the 128-row one,
         # 129 the whole batch.
         gated = where_active(arm.dls_step, FRACTIONS)
-        jaxpr = jax.make_jaxpr(jax.vmap(gated, in_axes=CFG_AXIS))(
-            *_inputs(jax.random.key(0), (1024,), 0.0)[:4], A
-        )
-        (switch,) = [e for e in _eqns(jaxpr.jaxpr) if e.primitive.name == "cond"]
+        (switch,) = _conds(gated, 1024)
         assert len(switch.params["branches"]) == 4  # none, 16 rows, 128 rows, all 1024
         nobody = switch.params["branches"][0].jaxpr
         assert not nobody.eqns or {e.primitive.name for e in nobody.eqns} <= {"broadcast_in_dim"}
