@@ -13,7 +13,7 @@ import pytest
 from dyncatch.sim import arm
 from dyncatch.sim import env as sim_env
 from dyncatch.sim.config import WorldCfg
-from dyncatch.sim.gate import MIN_COMPACT_BATCH, compact_sizes, reference_where, where_active
+from dyncatch.sim.gate import compact_sizes, reference_where, where_active
 
 CFG = WorldCfg()
 A, B = CFG.arm, CFG.base
@@ -75,9 +75,10 @@ def _conds(gated, batch):
 
 
 def test_a_small_batch_runs_nobody_or_everyone():
-    # Below MIN_COMPACT_BATCH: two branches (none active, the whole batch), equal to the
-    # reference with none, one, some and all active; fractions () is no gate at all.
-    batch = MIN_COMPACT_BATCH // 4
+    # 16 environments, below MIN_COMPACT_BATCH (64): two branches (none active, the whole
+    # batch), equal to the reference with none, one, some and all active; fractions () is no
+    # gate at all. (With sub-batches, 16 environments would have four branches.)
+    batch = 16
     gated = where_active(arm.dls_step, FRACTIONS)
     assert [len(e.params["branches"]) for e in _conds(gated, batch)] == [2]
     assert _conds(where_active(arm.dls_step, ()), batch) == []
