@@ -1,0 +1,154 @@
+"""Information parity, a second seed set (issue 32): the two readings whose effect on rl
+missed the issue's 0.15 half-width at 10 seeds, measured again on new seeds.
+
+    .venv/bin/python benchmarks/parity_second_set.py --out /work/studies/parity2 [--dry-run]
+
+The first set (``parity_study.py``'s primary passes, seeds 0-9, its summary in
+``benchmarks/results/parity/``) left two effects on rl at 1.8 m/s on reactive wider than
+0.15: ``paper_observation`` (half-width 0.240) and ``success_every_step`` (0.266), both
+with bimodal seeds (some 0.00, the rest 0.35-0.95). Its raw results are gone, so they are
+not pooled here: this set is measured on its own and compared with the first.
+
+Written down before any run of this set, from the first set's seed spreads (SD 0.33-0.36
+under the two readings, 0.11 under ``default``): at 30 seeds under a reading and 15 under
+``default`` the projected half-width is 0.135-0.147.
+
+- **Runs:** ``rl`` only (the endpoints below read nothing else), the study's standard
+  flags (``parity_study.study_argv``: 128-128-64 networks, 4 M steps, 300 episodes per cell,
+  1.6 and 1.8 m/s, ``default`` with the staleness inputs as in the first set), seeds from
+  ``FIRST_SEED`` on in chunks of ``CHUNK`` (``--first-seed``; each chunk its own cached
+  ``dyncatch reproduce``, so a stopped session keeps every finished chunk).
+- **Order:** rounds; round r runs seeds ``FIRST_SEED + CHUNK r`` onward for ``default``
+  (rounds 0 to ``DEFAULT_ROUNDS - 1`` only), then ``paper_observation``, then
+  ``success_every_step``, for ``ROUNDS`` rounds. Where the session's time ends is where the
+  set ends: a count fixed by the clock, not by the results.
+- **Primary:** per reading, E = rl's success at 1.8 m/s on reactive under the reading minus
+  under ``default``, over this set's seeds: Welch's 95 % interval, its half-width (target
+  <= 0.15), Holm over the two effects; "lowers" when Holm's p < 0.05 and the interval is
+  below zero.
+- **Replication:** the first set's verdict on the same effect (its Holm family of 16,
+  ``benchmarks/results/parity/summary.json``) against this set's; they agree when both give
+  the same verdict.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from parity_study import SPEED_MPS, parser, setting_name, study_argv
+from study_io import run_study, write_summary
+
+from dyncatch.evaluation.intervals import holm, welch
+from dyncatch.reproduce.aggregate import seed_means
+
+READINGS = ("paper_observation", "success_every_step")
+SETTINGS = ((), *((r,) for r in READINGS))
+FIRST_SEED = 10
+CHUNK = 5
+ROUNDS = 6
+DEFAULT_ROUNDS = 3
+FIRST_SET = Path(__file__).parent / "results" / "parity" / "summary.json"
+
+
+def chunk_argv(args, setting: tuple[str, ...], first: int) -> list[str]:
+    """``setting``'s rl runs on seeds ``first`` ... ``first + CHUNK - 1``."""
+    argv = study_argv(args, setting, primary_seeds=CHUNK)
+    argv[argv.index("--out") + 1] = str(chunk_folder(args.out, setting, first))
+    i = argv.index("--methods")
+    argv[i + 1 : i + 3] = ["rl"]
+    return [*argv, "--first-seed", str(first)]
+
+
+def chunk_folder(out: Path, setting: tuple[str, ...], first: int) -> Path:
+    return out / f"seeds{first}-{first + CHUNK - 1}" / setting_name(setting)
+
+
+def passes(args):
+    for r in range(ROUNDS):
+        first = FIRST_SEED + CHUNK * r
+        for s in SETTINGS:
+            if s or r < DEFAULT_ROUNDS:
+                yield chunk_argv(args, s, first)
+
+
+def per_seed(out: Path, setting: tuple[str, ...]) -> dict[int, float]:
+    """rl's success at 1.8 m/s on reactive per seed, over the finished chunks."""
+    seeds: dict[int, float] = {}
+    for r in range(ROUNDS):
+        first = FIRST_SEED + CHUNK * r
+        path = chunk_folder(out, setting, first) / "results.json"
+        if not path.exists():
+            continue
+        res = json.loads(path.read_text())
+        values = seed_means(res["table_i"]["cells"], "rl", SPEED_MPS, ("reactive",))
+        plan = res["plan"]
+        ids = range(plan["first_seed"], plan["first_seed"] + plan["seeds"])
+        seeds.update(zip(ids, values or [], strict=True))
+    return dict(sorted(seeds.items()))
+
+
+def summarize(args) -> dict:
+    seeds = {setting_name(s): per_seed(args.out, s) for s in SETTINGS}
+    first = json.loads(FIRST_SET.read_text()) if FIRST_SET.exists() else {"primary": []}
+    first_rows = {(r["setting"], r["method"]): r for r in first["primary"]}
+    base = list(seeds["default"].values())
+    rows = []
+    for name in READINGS:
+        vals = list(seeds[name].values())
+        if min(len(vals), len(base)) < 2:
+            continue
+        d = welch(vals, base)
+        rows.append({"setting": name, "method": "rl", "seeds": len(vals),
+                     "baseline_seeds": len(base), "difference": d.difference,
+                     "ci95": list(d.ci), "half_width": d.half_width,
+                     "p_value": d.p_value})  # fmt: skip
+    for row, p in zip(rows, holm([r["p_value"] for r in rows]), strict=True):
+        lo, hi = row["ci95"]
+        row["p_holm"] = float(p)
+        row["verdict"] = "unresolved" if p >= 0.05 else ("lowers" if hi < 0 else "raises")
+        then = first_rows.get((row["setting"], "rl"))
+        row["first_set"] = then and {k: then[k] for k in ("difference", "ci95", "verdict")}
+        row["agrees"] = bool(then) and then["verdict"] == row["verdict"]
+    result = {"per_seed": seeds, "primary": rows}
+    lines = [
+        f"Second seed set (seeds {FIRST_SEED} on): each reading's effect on rl's success at "
+        f"{SPEED_MPS} m/s, reactive, against default (Welch 95 % CI over seeds; Holm over the "
+        "two), beside the first set's (seeds 0-9).",
+        "",
+        "| setting | seeds (default) | effect [95 % CI] | half-width | p (Holm) | verdict "
+        "| first set: effect [95 % CI], verdict | agree |",
+        "|---|---:|---|---:|---:|---|---|---|",
+    ]
+    for r in rows:
+        lo, hi = r["ci95"]
+        f = r["first_set"]
+        then = f"{f['difference']:+.3f} [{f['ci95'][0]:+.3f}, {f['ci95'][1]:+.3f}], {f['verdict']}"
+        lines.append(
+            f"| {r['setting']} | {r['seeds']} ({r['baseline_seeds']}) | {r['difference']:+.3f} "
+            f"[{lo:+.3f}, {hi:+.3f}] | {r['half_width']:.3f} | {r['p_holm']:.3f} "
+            f"| {r['verdict']} | {then if f else 'not measured'} "
+            f"| {'yes' if r['agrees'] else 'no'} |"
+        )
+    lines += ["", f"Per-seed success of rl at {SPEED_MPS} m/s on reactive.", ""]
+    lines += ["| setting | seeds | per seed |", "|---|---:|---|"]
+    for name, v in seeds.items():
+        cells = ", ".join(f"{k}: {x:.2f}" for k, x in v.items())
+        lines.append(f"| {name} | {len(v)} | {cells} |")
+    write_summary(args.summary_dir, result, lines)
+    return result
+
+
+def run(argv: list[str] | None = None) -> int:
+    ap = parser()
+    summary_dir = Path("benchmarks/results/parity/second_set")
+    ap.set_defaults(summary_dir=summary_dir, hidden_sizes=[128, 128, 64])
+    args = ap.parse_args(argv)
+    return run_study(args, list(passes(args)), summarize)
+
+
+if __name__ == "__main__":
+    from dyncatch.utils.jax_setup import setup_jax
+
+    setup_jax()
+    raise SystemExit(run())
