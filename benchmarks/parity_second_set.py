@@ -26,6 +26,13 @@ under the two readings, 0.11 under ``default``): at 30 seeds under a reading and
   under ``default``, over this set's seeds: Welch's 95 % interval, its half-width (target
   <= 0.15), Holm over the two effects; "lowers" when Holm's p < 0.05 and the interval is
   below zero.
+- **Then sp_rl** (added at this set's first hour, before any sp_rl run of it; the rl rounds
+  above unchanged): the first set's effect on sp_rl under ``success_every_step`` missed 0.15
+  too (0.157; SDs 0.21 and 0.085), which 15 seeds a side would bring to about 0.12. After the
+  rl rounds, ``SP_ROUNDS`` rounds of ``sp_rl`` chunks on the same seeds, ``default`` then
+  ``success_every_step``, each chunk with its own self-aware predictor (seeded with the
+  chunk's first seed, as ``--first-seed`` does); again the clock ends it. Its effect joins
+  the primary family (Holm over every effect this set measures).
 - **Replication:** the first set's verdict on the same effect (its Holm family of 16,
   ``benchmarks/results/parity/summary.json``) against this set's; they agree when both give
   the same verdict.
@@ -48,20 +55,25 @@ FIRST_SEED = 10
 CHUNK = 5
 ROUNDS = 6
 DEFAULT_ROUNDS = 3
+SP_SETTINGS = ((), ("success_every_step",))
+SP_ROUNDS = 3
+METHODS = ("rl", "sp_rl")
 FIRST_SET = Path(__file__).parent / "results" / "parity" / "summary.json"
 
 
-def chunk_argv(args, setting: tuple[str, ...], first: int) -> list[str]:
-    """``setting``'s rl runs on seeds ``first`` ... ``first + CHUNK - 1``."""
+def chunk_argv(args, setting: tuple[str, ...], first: int, method: str = "rl") -> list[str]:
+    """``setting``'s ``method`` runs on seeds ``first`` ... ``first + CHUNK - 1``."""
     argv = study_argv(args, setting, primary_seeds=CHUNK)
-    argv[argv.index("--out") + 1] = str(chunk_folder(args.out, setting, first))
+    argv[argv.index("--out") + 1] = str(chunk_folder(args.out, setting, first, method))
     i = argv.index("--methods")
-    argv[i + 1 : i + 3] = ["rl"]
+    argv[i + 1 : i + 3] = [method]
     return [*argv, "--first-seed", str(first)]
 
 
-def chunk_folder(out: Path, setting: tuple[str, ...], first: int) -> Path:
-    return out / f"seeds{first}-{first + CHUNK - 1}" / setting_name(setting)
+def chunk_folder(out: Path, setting: tuple[str, ...], first: int, method: str = "rl") -> Path:
+    """A chunk's folder; an rl chunk's is named by its setting alone (the set began so)."""
+    name = setting_name(setting) + ("" if method == "rl" else f".{method}")
+    return out / f"seeds{first}-{first + CHUNK - 1}" / name
 
 
 def passes(args):
@@ -70,18 +82,21 @@ def passes(args):
         for s in SETTINGS:
             if s or r < DEFAULT_ROUNDS:
                 yield chunk_argv(args, s, first)
+    for r in range(SP_ROUNDS):
+        for s in SP_SETTINGS:
+            yield chunk_argv(args, s, FIRST_SEED + CHUNK * r, "sp_rl")
 
 
-def per_seed(out: Path, setting: tuple[str, ...]) -> dict[int, float]:
-    """rl's success at 1.8 m/s on reactive per seed, over the finished chunks."""
+def per_seed(out: Path, setting: tuple[str, ...], method: str = "rl") -> dict[int, float]:
+    """``method``'s success at 1.8 m/s on reactive per seed, over the finished chunks."""
     seeds: dict[int, float] = {}
     for r in range(ROUNDS):
         first = FIRST_SEED + CHUNK * r
-        path = chunk_folder(out, setting, first) / "results.json"
+        path = chunk_folder(out, setting, first, method) / "results.json"
         if not path.exists():
             continue
         res = json.loads(path.read_text())
-        values = seed_means(res["table_i"]["cells"], "rl", SPEED_MPS, ("reactive",))
+        values = seed_means(res["table_i"]["cells"], method, SPEED_MPS, ("reactive",))
         plan = res["plan"]
         ids = range(plan["first_seed"], plan["first_seed"] + plan["seeds"])
         seeds.update(zip(ids, values or [], strict=True))
@@ -89,17 +104,19 @@ def per_seed(out: Path, setting: tuple[str, ...]) -> dict[int, float]:
 
 
 def summarize(args) -> dict:
-    seeds = {setting_name(s): per_seed(args.out, s) for s in SETTINGS}
+    settings = {"rl": SETTINGS, "sp_rl": SP_SETTINGS}
+    seeds = {m: {setting_name(s): per_seed(args.out, s, m) for s in settings[m]} for m in METHODS}
     first = json.loads(FIRST_SET.read_text()) if FIRST_SET.exists() else {"primary": []}
     first_rows = {(r["setting"], r["method"]): r for r in first["primary"]}
-    base = list(seeds["default"].values())
     rows = []
-    for name in READINGS:
-        vals = list(seeds[name].values())
-        if min(len(vals), len(base)) < 2:
-            continue
-        d = welch(vals, base)
-        rows.append({"setting": name, "method": "rl", "seeds": len(vals),
+    for m, by_setting in seeds.items():
+        base = list(by_setting["default"].values())
+        for name in (n for n in by_setting if n != "default"):
+            vals = list(by_setting[name].values())
+            if min(len(vals), len(base)) < 2:
+                continue
+            d = welch(vals, base)
+            rows.append({"setting": name, "method": m, "seeds": len(vals),
                      "baseline_seeds": len(base), "difference": d.difference,
                      "ci95": list(d.ci), "half_width": d.half_width,
                      "p_value": d.p_value})  # fmt: skip
@@ -107,34 +124,36 @@ def summarize(args) -> dict:
         lo, hi = row["ci95"]
         row["p_holm"] = float(p)
         row["verdict"] = "unresolved" if p >= 0.05 else ("lowers" if hi < 0 else "raises")
-        then = first_rows.get((row["setting"], "rl"))
+        then = first_rows.get((row["setting"], row["method"]))
         row["first_set"] = then and {k: then[k] for k in ("difference", "ci95", "verdict")}
         row["agrees"] = bool(then) and then["verdict"] == row["verdict"]
     result = {"per_seed": seeds, "primary": rows}
     lines = [
-        f"Second seed set (seeds {FIRST_SEED} on): each reading's effect on rl's success at "
-        f"{SPEED_MPS} m/s, reactive, against default (Welch 95 % CI over seeds; Holm over the "
-        "two), beside the first set's (seeds 0-9).",
+        f"Second seed set (seeds {FIRST_SEED} on): each reading's effect on success at "
+        f"{SPEED_MPS} m/s, reactive, against default (Welch 95 % CI over seeds; Holm over "
+        "every effect of this set), beside the first set's (seeds 0-9).",
         "",
-        "| setting | seeds (default) | effect [95 % CI] | half-width | p (Holm) | verdict "
-        "| first set: effect [95 % CI], verdict | agree |",
-        "|---|---:|---|---:|---:|---|---|---|",
+        "| setting | method | seeds (default) | effect [95 % CI] | half-width | p (Holm) "
+        "| verdict | first set: effect [95 % CI], verdict | agree |",
+        "|---|---|---:|---|---:|---:|---|---|---|",
     ]
     for r in rows:
         lo, hi = r["ci95"]
         f = r["first_set"]
         then = f"{f['difference']:+.3f} [{f['ci95'][0]:+.3f}, {f['ci95'][1]:+.3f}], {f['verdict']}"
         lines.append(
-            f"| {r['setting']} | {r['seeds']} ({r['baseline_seeds']}) | {r['difference']:+.3f} "
+            f"| {r['setting']} | {r['method']} | {r['seeds']} ({r['baseline_seeds']}) "
+            f"| {r['difference']:+.3f} "
             f"[{lo:+.3f}, {hi:+.3f}] | {r['half_width']:.3f} | {r['p_holm']:.3f} "
             f"| {r['verdict']} | {then if f else 'not measured'} "
             f"| {'yes' if r['agrees'] else 'no'} |"
         )
-    lines += ["", f"Per-seed success of rl at {SPEED_MPS} m/s on reactive.", ""]
-    lines += ["| setting | seeds | per seed |", "|---|---:|---|"]
-    for name, v in seeds.items():
-        cells = ", ".join(f"{k}: {x:.2f}" for k, x in v.items())
-        lines.append(f"| {name} | {len(v)} | {cells} |")
+    lines += ["", f"Per-seed success at {SPEED_MPS} m/s on reactive.", ""]
+    lines += ["| setting | method | seeds | per seed |", "|---|---|---:|---|"]
+    for m, by_setting in seeds.items():
+        for name, v in by_setting.items():
+            cells = ", ".join(f"{k}: {x:.2f}" for k, x in v.items())
+            lines.append(f"| {name} | {m} | {len(v)} | {cells} |")
     write_summary(args.summary_dir, result, lines)
     return result
 
