@@ -1,5 +1,6 @@
 """The network-size and parity studies' criteria on hand-made results
-(benchmarks/network_size_study.py, benchmarks/parity_study.py)."""
+(benchmarks/network_size_study.py, benchmarks/parity_study.py,
+benchmarks/parity_second_set.py)."""
 
 import importlib.util
 import sys
@@ -26,6 +27,7 @@ def _load(name):
 
 size_study = _load("network_size_study")
 parity_study = _load("parity_study")
+second_set = _load("parity_second_set")
 
 SEEDS = (-0.02, -0.01, 0.0, 0.01, 0.02)
 
@@ -259,3 +261,86 @@ def test_the_study_resumes_its_recorded_plans_under_the_new_default(tmp_path, wh
         bare = [a for a in argv if a != parity_study.STALENESS_FLAG]
         with pytest.raises(ValueError, match=r"world\.observation\.staleness_inputs"):
             check_plan(folder, parse(bare)[1])
+
+
+@pytest.mark.parametrize("where", ["primary_s10/default", "primary_s10/paper_observation"])
+@pytest.mark.parametrize("method", ["rl", "sp_rl"])
+def test_a_second_set_chunk_is_the_first_sets_plan_on_other_seeds(tmp_path, where, method):
+    """The replication compares like with like: a chunk's plan differs from the first set's
+    recorded one in its seeds and methods alone."""
+    import json
+
+    from dyncatch.reproduce.layout import plans_differ
+
+    recorded = json.loads((_PLANS / f"{where.replace('/', '_')}.json").read_text())
+    args = parity_study.parser().parse_args(
+        ["--out", str(tmp_path), "--hidden-sizes", "128", "128", "64"]
+    )
+    argv = second_set.chunk_argv(args, RECORDED[where], 15, method)
+    plan = parse(argv)[1]
+    validate_plan(plan)
+    assert plans_differ(plan.to_json(), recorded) == {
+        "first_seed": (15, 0), "methods": ([method], ["rl", "sp_rl"]), "seeds": (5, 10),
+    }  # fmt: skip
+    name = "default" if not RECORDED[where] else "paper_observation"
+    suffix = "" if method == "rl" else ".sp_rl"
+    assert Path(argv[argv.index("--out") + 1]) == tmp_path / "seeds15-19" / f"{name}{suffix}"
+
+
+def test_the_second_set_runs_rl_rounds_then_sp_rl_and_judges_its_own_seeds(tmp_path, monkeypatch):
+    import json
+
+    args = parity_study.parser().parse_args(["--out", str(tmp_path / "out")])
+    args.summary_dir = tmp_path / "summary"
+    order = [(a[a.index("--out") + 1], a[a.index("--first-seed") + 1])
+             for a in second_set.passes(args)]  # fmt: skip
+    names = [Path(out).relative_to(args.out).as_posix() for out, _ in order]
+    rl_rounds = 3 * second_set.DEFAULT_ROUNDS + 2 * (second_set.ROUNDS - second_set.DEFAULT_ROUNDS)
+    assert names[:4] == ["seeds10-14/default", "seeds10-14/paper_observation",
+                         "seeds10-14/success_every_step", "seeds15-19/default"]  # fmt: skip
+    assert "seeds25-29/default" not in names  # the baseline's rounds end at 15 seeds
+    assert names[rl_rounds:rl_rounds + 2] == ["seeds10-14/default.sp_rl",
+                                              "seeds10-14/success_every_step.sp_rl"]  # fmt: skip
+    assert len(names) == rl_rounds + 2 * second_set.SP_ROUNDS
+    assert all(first == out.split("seeds")[-1].split("-")[0] for out, first in order)
+
+    def finish(setting, first, method, values):
+        folder = second_set.chunk_folder(args.out, setting, first, method)
+        folder.mkdir(parents=True)
+        cells = [{"behavior": "reactive", "method": method, "speed_mps": v,
+                  "per_seed_success": values} for v in (1.6, 1.8)]  # fmt: skip
+        plan = {"first_seed": first, "seeds": len(values)}
+        (folder / "results.json").write_text(
+            json.dumps({"plan": plan, "table_i": {"cells": cells}})
+        )
+
+    finish((), 10, "rl", [0.90, 0.92, 0.88, 0.91, 0.89])
+    finish((), 15, "rl", [0.90, 0.93, 0.87, 0.90, 0.90])
+    finish(("paper_observation",), 10, "rl", [0.40, 0.42, 0.38, 0.41, 0.39])
+    finish(("success_every_step",), 10, "rl", [0.90, 0.92, 0.88, 0.91, 0.89])
+    finish((), 10, "sp_rl", [0.95, 0.96, 0.94, 0.95, 0.95])
+    first = tmp_path / "first.json"
+    first.write_text(json.dumps({"primary": [
+        {"setting": "paper_observation", "method": "rl", "difference": -0.3,
+         "ci95": [-0.5, -0.1], "verdict": "lowers"},
+        {"setting": "success_every_step", "method": "rl", "difference": -0.6,
+         "ci95": [-0.9, -0.3], "verdict": "lowers"},
+    ]}))  # fmt: skip
+    monkeypatch.setattr(second_set, "FIRST_SET", first)
+    result = second_set.summarize(args)
+    assert list(result["per_seed"]["rl"]["default"]) == list(range(10, 20))
+    assert result["per_seed"]["sp_rl"]["success_every_step"] == {}
+    rows = {(r["setting"], r["method"]): r for r in result["primary"]}
+    assert set(rows) == {("paper_observation", "rl"), ("success_every_step", "rl")}
+    lowered = rows[("paper_observation", "rl")]
+    assert (lowered["seeds"], lowered["baseline_seeds"]) == (5, 10)
+    assert lowered["difference"] == pytest.approx(0.40 - 0.90)
+    assert lowered["verdict"] == "lowers" and lowered["agrees"]
+    same = rows[("success_every_step", "rl")]
+    assert same["verdict"] == "unresolved" and not same["agrees"]
+    # Holm over the two: the larger p is at least its raw value.
+    assert same["p_holm"] >= same["p_value"]
+    assert (
+        "| paper_observation | rl | 5 (10) | -0.500"
+        in (args.summary_dir / "summary.md").read_text()
+    )
