@@ -33,6 +33,11 @@ under the two readings, 0.11 under ``default``): at 30 seeds under a reading and
   ``success_every_step``, each chunk with its own self-aware predictor (seeded with the
   chunk's first seed, as ``--first-seed`` does); again the clock ends it. Its effect joins
   the primary family (Holm over every effect this set measures).
+- **Descriptive, added after the rl rounds** (no verdict reads it): how each seed's training
+  went, from its periodic evaluations (``metrics.csv``'s ``eval/success_rate``, the
+  training world's speeds): of the seeds under ``LOW`` at 1.8 m/s, those whose best
+  periodic evaluation stayed under ``LOW`` (never learned to catch) and those that reached it
+  and ended more than ``FELL_BY`` below their best (learned, then lost it).
 - **Replication:** the first set's verdict on the same effect (its Holm family of 16,
   ``benchmarks/results/parity/summary.json``) against this set's; they agree when both give
   the same verdict.
@@ -48,6 +53,8 @@ from study_io import run_study, write_summary
 
 from dyncatch.evaluation.intervals import holm, welch
 from dyncatch.reproduce.aggregate import seed_means
+from dyncatch.reproduce.layout import run_dir
+from dyncatch.reproduce.report import read_curve
 
 READINGS = ("paper_observation", "success_every_step")
 SETTINGS = ((), *((r,) for r in READINGS))
@@ -58,6 +65,8 @@ DEFAULT_ROUNDS = 3
 SP_SETTINGS = ((), ("success_every_step",))
 SP_ROUNDS = 3
 METHODS = ("rl", "sp_rl")
+LOW = 0.5
+FELL_BY = 0.3
 FIRST_SET = Path(__file__).parent / "results" / "parity" / "summary.json"
 
 
@@ -103,6 +112,23 @@ def per_seed(out: Path, setting: tuple[str, ...], method: str = "rl") -> dict[in
     return dict(sorted(seeds.items()))
 
 
+def training_course(out: Path, setting: tuple[str, ...], method: str, seeds: dict) -> dict:
+    """Of ``seeds`` (seed: success at 1.8 m/s) those under ``LOW``: never learned to catch
+    in training (best periodic evaluation under ``LOW``), or learned and lost it (ended more
+    than ``FELL_BY`` below a best of ``LOW`` or more), or neither; each seed's best and last."""
+    course: dict = {"low": [], "never": [], "lost": [], "other": []}
+    for seed, success in seeds.items():
+        first = FIRST_SEED + CHUNK * ((seed - FIRST_SEED) // CHUNK)
+        folder = chunk_folder(out, setting, first, method)
+        evals = read_curve(run_dir(folder, "reactive", method, seed))["eval_success_rate"]
+        best, last = float(evals.max()), float(evals[-1])
+        if success < LOW:
+            course["low"].append({"seed": seed, "success": success, "best": best, "last": last})
+            kind = "never" if best < LOW else ("lost" if last < best - FELL_BY else "other")
+            course[kind].append(seed)
+    return course
+
+
 def summarize(args) -> dict:
     settings = {"rl": SETTINGS, "sp_rl": SP_SETTINGS}
     seeds = {m: {setting_name(s): per_seed(args.out, s, m) for s in settings[m]} for m in METHODS}
@@ -127,7 +153,12 @@ def summarize(args) -> dict:
         then = first_rows.get((row["setting"], row["method"]))
         row["first_set"] = then and {k: then[k] for k in ("difference", "ci95", "verdict")}
         row["agrees"] = bool(then) and then["verdict"] == row["verdict"]
-    result = {"per_seed": seeds, "primary": rows}
+    courses = {
+        m: {setting_name(s): training_course(args.out, s, m, seeds[m][setting_name(s)])
+            for s in settings[m]}
+        for m in METHODS
+    }  # fmt: skip
+    result = {"per_seed": seeds, "primary": rows, "training_course": courses}
     lines = [
         f"Second seed set (seeds {FIRST_SEED} on): each reading's effect on success at "
         f"{SPEED_MPS} m/s, reactive, against default (Welch 95 % CI over seeds; Holm over "
@@ -154,6 +185,24 @@ def summarize(args) -> dict:
         for name, v in by_setting.items():
             cells = ", ".join(f"{k}: {x:.2f}" for k, x in v.items())
             lines.append(f"| {name} | {m} | {len(v)} | {cells} |")
+    lines += [
+        "",
+        f"Seeds under {LOW} at {SPEED_MPS} m/s and how their training went (descriptive): "
+        f"never learned to catch (best periodic evaluation under {LOW}), or learned and "
+        f"lost it (ended more than {FELL_BY} below its best).",
+        "",
+        "| setting | method | seeds | under 0.5 | never learned | learned, lost it | other |",
+        "|---|---|---:|---:|---|---|---|",
+    ]
+    for m, by_setting in courses.items():
+        for name, c in by_setting.items():
+            never, lost, other = (
+                ", ".join(map(str, c[k])) or "-" for k in ("never", "lost", "other")
+            )
+            lines.append(
+                f"| {name} | {m} | {len(seeds[m][name])} | {len(c['low'])} | {never} | {lost} "
+                f"| {other} |"
+            )
     write_summary(args.summary_dir, result, lines)
     return result
 

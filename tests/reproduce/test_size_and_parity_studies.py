@@ -304,9 +304,14 @@ def test_the_second_set_runs_rl_rounds_then_sp_rl_and_judges_its_own_seeds(tmp_p
     assert len(names) == rl_rounds + 2 * second_set.SP_ROUNDS
     assert all(first == out.split("seeds")[-1].split("-")[0] for out, first in order)
 
-    def finish(setting, first, method, values):
+    def finish(setting, first, method, values, evals=(0.0, 0.9, 0.9)):
         folder = second_set.chunk_folder(args.out, setting, first, method)
-        folder.mkdir(parents=True)
+        for seed in range(first, first + len(values)):  # each run's periodic evaluations
+            run = folder / "runs" / "reactive" / method / f"seed{seed}"
+            run.mkdir(parents=True)
+            rows = ["iteration,env_steps,success_rate,reward_per_step,time_s,eval/success_rate"]
+            rows += [f"{i},{i * 64},0,0,{i},{e}" for i, e in enumerate(evals, 1)]
+            (run / "metrics.csv").write_text("\n".join(rows) + "\n")
         cells = [{"behavior": "reactive", "method": method, "speed_mps": v,
                   "per_seed_success": values} for v in (1.6, 1.8)]  # fmt: skip
         plan = {"first_seed": first, "seeds": len(values)}
@@ -316,9 +321,10 @@ def test_the_second_set_runs_rl_rounds_then_sp_rl_and_judges_its_own_seeds(tmp_p
 
     finish((), 10, "rl", [0.90, 0.92, 0.88, 0.91, 0.89])
     finish((), 15, "rl", [0.90, 0.93, 0.87, 0.90, 0.90])
-    finish(("paper_observation",), 10, "rl", [0.40, 0.42, 0.38, 0.41, 0.39])
+    finish(("paper_observation",), 10, "rl", [0.40, 0.42, 0.38, 0.41, 0.39], (0.0, 0.9, 0.5))
     finish(("success_every_step",), 10, "rl", [0.90, 0.92, 0.88, 0.91, 0.89])
     finish((), 10, "sp_rl", [0.95, 0.96, 0.94, 0.95, 0.95])
+    finish(("success_every_step",), 15, "rl", [0.0, 0.9, 0.1, 0.9, 0.9], (0.0, 0.2, 0.1))
     first = tmp_path / "first.json"
     first.write_text(json.dumps({"primary": [
         {"setting": "paper_observation", "method": "rl", "difference": -0.3,
@@ -331,6 +337,11 @@ def test_the_second_set_runs_rl_rounds_then_sp_rl_and_judges_its_own_seeds(tmp_p
     assert list(result["per_seed"]["rl"]["default"]) == list(range(10, 20))
     assert result["per_seed"]["sp_rl"]["success_every_step"] == {}
     rows = {(r["setting"], r["method"]): r for r in result["primary"]}
+    # Under 0.5 at 1.8 m/s: learned in training and lost it, or never learned at all.
+    course = result["training_course"]["rl"]
+    assert course["paper_observation"]["lost"] == [10, 11, 12, 13, 14]
+    assert course["success_every_step"]["never"] == [15, 17]
+    assert course["default"]["low"] == []
     assert set(rows) == {("paper_observation", "rl"), ("success_every_step", "rl")}
     lowered = rows[("paper_observation", "rl")]
     assert (lowered["seeds"], lowered["baseline_seeds"]) == (5, 10)
