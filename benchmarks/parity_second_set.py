@@ -118,14 +118,15 @@ def training_course(out: Path, setting: tuple[str, ...], method: str, seeds: dic
     than ``FELL_BY`` below a best of ``LOW`` or more), or neither; each seed's best and last."""
     course: dict = {"low": [], "never": [], "lost": [], "other": []}
     for seed, success in seeds.items():
+        if success >= LOW:
+            continue
         first = FIRST_SEED + CHUNK * ((seed - FIRST_SEED) // CHUNK)
         folder = chunk_folder(out, setting, first, method)
         evals = read_curve(run_dir(folder, "reactive", method, seed))["eval_success_rate"]
         best, last = float(evals.max()), float(evals[-1])
-        if success < LOW:
-            course["low"].append({"seed": seed, "success": success, "best": best, "last": last})
-            kind = "never" if best < LOW else ("lost" if last < best - FELL_BY else "other")
-            course[kind].append(seed)
+        course["low"].append({"seed": seed, "success": success, "best": best, "last": last})
+        kind = "never" if best < LOW else ("lost" if last < best - FELL_BY else "other")
+        course[kind].append(seed)
     return course
 
 
