@@ -48,6 +48,8 @@ TINY = [
     # Fig. 9 is tested at a tiny size on its own (tests/reproduce/test_fig9.py).
     "--no-fig9",
 ]  # fmt: skip
+UNPROBED = [*TINY, "--no-probe-machine"]
+"""The tiny plan without the machine probe (about 5 s): the module's fixture probes once."""
 
 
 def straight():
@@ -97,6 +99,14 @@ def test_every_table_and_figure_is_written(quick):
         assert f"| {label} |" in report, label
     table_ii = (quick / "table_ii" / "table_ii.md").read_text()
     assert "| straight | vanilla |" in table_ii and "| straight | self_aware |" in table_ii
+    # The machine was probed (bench.speed_probe): its factors, and each stage's estimate
+    # scaled by them beside the reference machine's, in results.json and the report.
+    wall = r["wall"]
+    speed = wall["machine_speed"]
+    assert speed["compute"] > 0 and speed["compile"] > 0
+    assert wall["machine_probe"]["compute_s"] > 0 and wall["machine_probe"]["compile_s"] > 0
+    assert wall["stages_estimate_here_s"].keys() == wall["stages_estimate_s"].keys()
+    assert "measured / estimate here |" in report and "This machine's probe" in report
 
 
 def test_results_json_agrees_with_an_independent_evaluation(quick, capsys):
@@ -139,7 +149,7 @@ def test_results_json_agrees_with_an_independent_evaluation(quick, capsys):
 def test_rerun_resumes_and_other_plans_or_worlds_are_refused(quick, capsys):
     stamp = {p: p.stat().st_mtime_ns for p in (quick / "eval").rglob("*.json")}
     with straight():
-        assert main(["reproduce", "--out", str(quick), *TINY]) == 0
+        assert main(["reproduce", "--out", str(quick), *UNPROBED]) == 0
         assert {p: p.stat().st_mtime_ns for p in (quick / "eval").rglob("*.json")} == stamp
         for extra, needle in (
             (["--seeds", "2"], "seeds (1 -> 2)"),
@@ -326,7 +336,7 @@ def test_a_ray_grid_gives_the_serial_report(quick, local_ray, tmp_path):
     for name in ("results.json", "report.md", "wall.json"):
         (out / name).unlink()
     with straight():
-        assert main(["reproduce", "--out", str(out), *TINY, "--executor", "ray"]) == 0
+        assert main(["reproduce", "--out", str(out), *UNPROBED, "--executor", "ray"]) == 0
     serial = json.loads((quick / "results.json").read_text())
     ray = json.loads((out / "results.json").read_text())
     assert _comparable(ray) == _comparable(serial)

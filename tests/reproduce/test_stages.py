@@ -6,6 +6,8 @@ import time
 
 import pytest
 
+from dyncatch.bench.speed_probe import REFERENCE, MachineSpeed
+from dyncatch.policies.registry import BASELINES
 from dyncatch.reproduce import pipeline
 from dyncatch.reproduce.plan import PROFILES, Plan
 from dyncatch.reproduce.presentation import PRESENTATION, paper_claims, reproduced_methods
@@ -190,12 +192,53 @@ def test_the_log_numbers_the_stages_from_the_list(tmp_path, monkeypatch):
         pipeline.summary, "results", lambda p, o, outputs, c, k: got.update(outputs) or {}
     )
     monkeypatch.setattr(pipeline, "render_report", lambda r, p: "")
+    # The machine probe (bench.speed_probe) stubbed: a machine twice as slow to compute and
+    # twice as fast to compile as the reference.
+    speed = MachineSpeed(compute=2.0, compile=0.5)
+    monkeypatch.setattr(pipeline, "probe_speed", lambda: (speed, {"probe_wall_s": 4.2}))
     logs = []
     pipeline.run(plan, "dyncatch reproduce", logs.append)
     stage_lines = [line.split("] ", 1)[1] for line in logs if "stage " in line]
     n = len(fake)
     assert stage_lines == [f"stage {i}/{n}: {s.title} (done)" for i, s in enumerate(fake, 1)]
     assert got == {s.name: s.name for s in fake}
+    first = logs[0].split("] ", 1)[1]
+    assert first == (
+        f"estimated wall time for the whole plan: {estimate_s(plan) / 60:.0f} min on the "
+        "reference machine (the idle 2-core Xeon the estimate was fit on); this machine takes "
+        "2.00x its time to compute and 0.50x to compile (a 4 s probe), so here about "
+        f"{estimate_s(plan, speed) / 60:.0f} min (finished stages are skipped)"
+    )
+    # Without the probe (or in a merge of parts, which ran elsewhere) the reference alone.
+    logs.clear()
+    monkeypatch.setattr(pipeline, "probe_speed", lambda: pytest.fail("probed"))
+    pipeline.run(dataclasses.replace(plan, probe_machine=False), "dyncatch reproduce", logs.append)
+    assert logs[0].endswith("fit on) (finished stages are skipped)")
+
+
+def test_the_estimate_scales_compute_and_compilation_apart():
+    """On a machine of ``MachineSpeed(c, k)`` each stage takes c x its work plus k x its
+    compilations: the estimate is linear in the two factors, and the reference machine's
+    (1, 1) is the estimate itself."""
+    from dyncatch.reproduce import estimate as e
+
+    for plan in (PROFILES["full"], PROFILES["quick"], PROFILES["power"]):
+        for stage in stages_of(plan):
+            work = stage.estimate(plan, MachineSpeed(compute=1.0, compile=0.0))
+            compiles = stage.estimate(plan, MachineSpeed(compute=0.0, compile=1.0))
+            assert stage.estimate(plan) == pytest.approx(work + compiles, rel=1e-12)
+            assert stage.estimate(plan, MachineSpeed(1.7, 0.6)) == pytest.approx(
+                1.7 * work + 0.6 * compiles, rel=1e-12
+            )
+            assert stage.estimate(plan, REFERENCE) == stage.estimate(plan)
+    # The compilations are the counted programs at their constants: a training group one,
+    # a Table I row one per method and baseline.
+    full = PROFILES["full"]
+    only_compiling = MachineSpeed(compute=0.0, compile=1.0)
+    assert e.group_s(full, "rl", only_compiling) == e.EST_TRAIN_COMPILE_S
+    programs = (len(full.method_names) + len(BASELINES)) * len(full.table_i_rows)
+    assert e.table_i_s(full, only_compiling) == pytest.approx(programs * e.EST_EVAL_COMPILE_S)
+    assert e.table_ii_s(full, only_compiling) == 0.0  # data collection and updates only
 
 
 def test_the_wall_clock_adds_a_killed_invocations_time(tmp_path):

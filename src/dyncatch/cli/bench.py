@@ -1,5 +1,6 @@
-"""``dyncatch bench env|ppo|gait``: simulator and PPO throughput, and the full-body gait's
-step responses; printed as a table or JSON."""
+"""``dyncatch bench env|ppo|gait|machine``: simulator and PPO throughput, the full-body
+gait's step responses, and this machine's speed against the reproduction estimate's
+reference; printed as a table or JSON."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ from dyncatch.bench.env_bench import run_env_benchmark
 from dyncatch.bench.gait_bench import GaitBenchCfg, run_gait_benchmark
 from dyncatch.bench.machine import machine_info
 from dyncatch.bench.ppo_bench import PEAK_ROWS, mlp_flops, run_ppo_benchmark
+from dyncatch.bench.speed_probe import REF_COMPILE_S, REF_COMPUTE_S, probe_speed
 from dyncatch.fullbody.config import FullBodyCfg, validate_fullbody
 from dyncatch.predictor.config import TRACKER, PredictorCfg
 from dyncatch.predictor.model import Predictor
@@ -197,4 +199,46 @@ def format_gait_table(r: dict) -> str:
     lines = ["| quantity | value |", "|---|---:|"]
     lines += [f"| {name} | {value} |" for name, value in rows]
     lines.append(f"\nwall time: {r['wall_s']} s")
+    return "\n".join(lines)
+
+
+@dataclasses.dataclass(frozen=True)
+class MachineBenchCmd:
+    """This machine's time to compute and to compile against the machine the reproduction's
+    estimate was fit on (``dyncatch.bench.speed_probe``; ``dyncatch reproduce`` runs it first)."""
+
+    repeats: int = 3
+    """Compilations and runs of the probe; the best of each is kept."""
+    json: bool = False
+    """Print one JSON object instead of a table."""
+
+
+def run_machine_bench(cmd: MachineBenchCmd) -> dict:
+    if cmd.repeats < 1:
+        raise ValueError(f"--repeats must be at least 1, got {cmd.repeats}")
+    speed, times = probe_speed(cmd.repeats)
+    result = {
+        "machine": machine_info(),
+        "compute_factor": speed.compute,
+        "compile_factor": speed.compile,
+        "reference": {"compute_s": REF_COMPUTE_S, "compile_s": REF_COMPILE_S},
+        **times,
+    }
+    if cmd.json:
+        print(json.dumps(result))
+    else:
+        print(format_machine_table(result))
+    return result
+
+
+def format_machine_table(r: dict) -> str:
+    ref = r["reference"]
+    lines = [
+        "| probe | here (s) | reference (s) | factor |",
+        "|---|---:|---:|---:|",
+        f"| compute | {r['compute_s']:.3f} | {ref['compute_s']:.3f} | {r['compute_factor']:.2f} |",
+        f"| compile | {r['compile_s']:.3f} | {ref['compile_s']:.3f} | {r['compile_factor']:.2f} |",
+    ]
+    m = r["machine"]
+    lines.append(f"\nmachine: {m['cpu']}, {m['cores']} cores, jax {m['jax']} ({m['backend']})")
     return "\n".join(lines)

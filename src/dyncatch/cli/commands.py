@@ -17,9 +17,11 @@ from typing import Any
 from dyncatch.cli.bench import (
     EnvBenchCmd,
     GaitBenchCmd,
+    MachineBenchCmd,
     PPOBenchCmd,
     run_env_bench,
     run_gait_bench,
+    run_machine_bench,
     run_ppo_bench,
 )
 from dyncatch.cli.demo import DemoCmd, run_demo
@@ -61,11 +63,12 @@ COMMANDS: dict[str, Command | Group] = {
     "plot": Command(PlotCmd, run_plot),
     "reproduce": Command(Plan, run_reproduce, profile_default),
     "bench": Group(
-        "Throughput benchmarks; the full-body gait's step responses.",
+        "Throughput benchmarks; the full-body gait's step responses; this machine's speed.",
         {
             "env": Command(EnvBenchCmd, run_env_bench),
             "ppo": Command(PPOBenchCmd, run_ppo_bench),
             "gait": Command(GaitBenchCmd, run_gait_bench),
+            "machine": Command(MachineBenchCmd, run_machine_bench),
         },
     ),
     "evader": Group(

@@ -25,9 +25,12 @@ names the measurement it comes from, all on the idle 2-core Xeon:
   the periodic evaluations as a fixed 20 % of the iterations and every method at ``rl``'s
   rate.
 
-On another machine these constants do not hold (the 2-core AMD EPYC runs about 1.6 x
-slower): the serial executor's log then gives, from a stage's second job on, the stage's
-time left at its mean measured job (``executors.remaining_note``).
+On another machine these constants do not hold (2-core AMD EPYCs ran 1.2-1.6x slower), so
+each function takes the machine's ``MachineSpeed`` (``bench.speed_probe``, which
+``dyncatch reproduce`` measures first): its work scaled by the compute factor, its
+compilations (the ``*_COMPILE_S`` terms) by the compile factor; the default is the
+reference machine itself. The serial executor's log also gives, from a stage's second job
+on, the stage's time left at its mean measured job (``executors.remaining_note``).
 """
 
 from __future__ import annotations
@@ -35,6 +38,7 @@ from __future__ import annotations
 import math
 
 from dyncatch.bench.ppo_bench import ppo_flops_per_sample
+from dyncatch.bench.speed_probe import REFERENCE, MachineSpeed
 from dyncatch.policies.registry import BASELINES
 from dyncatch.predictor.table import all_kinds
 from dyncatch.reproduce.fig9 import rows_of
@@ -116,15 +120,16 @@ EST_VIDEO_S = 8.0
 in 0.5 min."""
 
 
-def predictors_s(plan: Plan) -> float:
+def predictors_s(plan: Plan, speed: MachineSpeed = REFERENCE) -> float:
     pairs = len(predictor_kinds(plan.method_names)) * len(plan.behaviors)
     steps = pairs * plan.predictor_steps
-    return steps / 1e6 * EST_PREDICTOR_S_PER_M_STEPS + EST_PREDICTOR_COMPILE_S * len(plan.behaviors)
+    work = steps / 1e6 * EST_PREDICTOR_S_PER_M_STEPS
+    return work * speed.compute + EST_PREDICTOR_COMPILE_S * len(plan.behaviors) * speed.compile
 
 
-def table_ii_s(plan: Plan) -> float:
+def table_ii_s(plan: Plan, speed: MachineSpeed = REFERENCE) -> float:
     steps = len(all_kinds()) * len(plan.table_ii_rows) * max(plan.table_ii_budgets)
-    return steps / 1e6 * EST_PREDICTOR_S_PER_M_STEPS
+    return steps / 1e6 * EST_PREDICTOR_S_PER_M_STEPS * speed.compute
 
 
 def group_size(plan: Plan) -> int:
@@ -148,7 +153,7 @@ def train_evaluations(plan: Plan) -> int:
     return sum(eval_due(cfg, it, 0, iters) for it in range(iters))
 
 
-def group_s(plan: Plan, method: str) -> float:
+def group_s(plan: Plan, method: str, speed: MachineSpeed = REFERENCE) -> float:
     """One (method, behaviour)'s seeds, grouped or one by one: their iterations, their
     periodic evaluations and one compilation (one by one, the later seeds reuse the first
     seed's programs in the same process)."""
@@ -157,12 +162,12 @@ def group_s(plan: Plan, method: str) -> float:
     iterations = plan.seeds * plan.train_steps * per_sample_s
     episodes = plan.seeds * train_evaluations(plan) * TrainRunCfg.eval_episodes
     evaluations = episodes / 1000 * EST_TRAIN_EVAL_S_PER_1000_EPISODES[learned]
-    return iterations + evaluations + EST_TRAIN_COMPILE_S
+    return (iterations + evaluations) * speed.compute + EST_TRAIN_COMPILE_S * speed.compile
 
 
-def training_s(plan: Plan) -> float:
+def training_s(plan: Plan, speed: MachineSpeed = REFERENCE) -> float:
     methods = trained_methods(plan.method_names)
-    return len(plan.behaviors) * sum(group_s(plan, m) for m in methods)
+    return len(plan.behaviors) * sum(group_s(plan, m, speed) for m in methods)
 
 
 def _policies(plan: Plan) -> int:
@@ -179,27 +184,30 @@ def _per_cell_s(plan: Plan) -> float:
     return EST_EVAL_S_PER_CELL + plan.episodes / 1000 * EST_EVAL_S_PER_1000_EPISODES
 
 
-def table_i_s(plan: Plan) -> float:
+def table_i_s(plan: Plan, speed: MachineSpeed = REFERENCE) -> float:
     cells = _policies(plan) * len(plan.speeds_mps) * len(plan.table_i_rows)
-    return cells * _per_cell_s(plan) + _programs(plan) * len(plan.table_i_rows) * EST_EVAL_COMPILE_S
+    programs = _programs(plan) * len(plan.table_i_rows)
+    return cells * _per_cell_s(plan) * speed.compute + programs * EST_EVAL_COMPILE_S * speed.compile
 
 
-def fig6_s(plan: Plan) -> float:
+def fig6_s(plan: Plan, speed: MachineSpeed = REFERENCE) -> float:
     columns = len(fig6_evaluated_columns(plan))
-    return (_policies(plan) * _per_cell_s(plan) + _programs(plan) * EST_EVAL_COMPILE_S) * columns
+    cells = _policies(plan) * _per_cell_s(plan) * speed.compute
+    return (cells + _programs(plan) * EST_EVAL_COMPILE_S * speed.compile) * columns
 
 
-def transfer_s(plan: Plan) -> float:
+def transfer_s(plan: Plan, speed: MachineSpeed = REFERENCE) -> float:
     # Only the trained methods' policies (no baselines), one speed, per transfer column.
-    cells = len(plan.method_names) * plan.seeds * _per_cell_s(plan)
-    return (cells + len(plan.method_names) * EST_EVAL_COMPILE_S) * len(plan.transfer_behaviors)
+    cells = len(plan.method_names) * plan.seeds * _per_cell_s(plan) * speed.compute
+    compiles = len(plan.method_names) * EST_EVAL_COMPILE_S * speed.compile
+    return (cells + compiles) * len(plan.transfer_behaviors)
 
 
-def videos_s(plan: Plan) -> float:
-    return EST_VIDEO_S * len(plan.fig6_columns)
+def videos_s(plan: Plan, speed: MachineSpeed = REFERENCE) -> float:
+    return EST_VIDEO_S * len(plan.fig6_columns) * speed.compute
 
 
-def fig9_s(plan: Plan) -> float:
+def fig9_s(plan: Plan, speed: MachineSpeed = REFERENCE) -> float:
     # One compilation per (policy, scene, behaviour): a trained policy's seeds (a pytree
     # policy is an argument) and its rows with and without the blend (a traced flag) share it.
     rows = rows_of(plan)
@@ -211,8 +219,9 @@ def fig9_s(plan: Plan) -> float:
         for r in rows
     )
     compiles = len({r.policy for r in rows})
-    return (per_group + compiles * EST_SCENE_COMPILE_S) * scenes_behaviors
+    compile_s = compiles * EST_SCENE_COMPILE_S * speed.compile
+    return (per_group * speed.compute + compile_s) * scenes_behaviors
 
 
-def fig9_videos_s(plan: Plan) -> float:
-    return EST_VIDEO_S * len(plan.fig9_scenes)
+def fig9_videos_s(plan: Plan, speed: MachineSpeed = REFERENCE) -> float:
+    return EST_VIDEO_S * len(plan.fig9_scenes) * speed.compute

@@ -13,6 +13,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+from dyncatch.bench.speed_probe import REFERENCE, MachineSpeed, probe_speed
 from dyncatch.reproduce import executors, layout, summary
 from dyncatch.reproduce.plan import Plan
 from dyncatch.reproduce.report_md import render_report
@@ -103,6 +104,20 @@ class WallClock:
         self.tick()
 
 
+def estimate_line(plan: Plan, speed: MachineSpeed | None, probe: dict | None) -> str:
+    """The first line of the log: the whole plan's estimate on the reference machine, and
+    with a probe's ``speed`` on this one."""
+    line = f"estimated wall time for the whole plan: {estimate_s(plan) / 60:.0f} min on the "
+    line += "reference machine (the idle 2-core Xeon the estimate was fit on)"
+    if speed is not None:
+        line += (
+            f"; this machine takes {speed.compute:.2f}x its time to compute and "
+            f"{speed.compile:.2f}x to compile (a {probe['probe_wall_s']:.0f} s probe), so here "
+            f"about {estimate_s(plan, speed) / 60:.0f} min"
+        )
+    return line + " (finished stages are skipped)"
+
+
 def run(plan: Plan, command: str, log: Callable[[str], None], progress=None) -> dict:
     """Every stage of ``plan`` into ``plan.out_dir``; ``log`` gets one line per stage and
     ``progress`` (``dyncatch.utils.progress``) the bars of long stages."""
@@ -117,10 +132,10 @@ def _run(plan: Plan, out: Path, command, say, progress, clock: WallClock) -> dic
     def log(msg: str) -> None:
         say(f"[{clock.elapsed_s():6.0f} s] {msg}")
 
-    log(
-        f"estimated wall time for the whole plan on 2 cores: {estimate_s(plan) / 60:.0f} min "
-        "(finished stages are skipped)"
-    )
+    speed, probe = None, None
+    if plan.probe_machine and not plan.merge_parts:
+        speed, probe = probe_speed()
+    log(estimate_line(plan, speed, probe))
 
     stages = stages_of(plan)
     outputs = {}
@@ -131,7 +146,7 @@ def _run(plan: Plan, out: Path, command, say, progress, clock: WallClock) -> dic
             todo = "done"
             if jobs:
                 todo = f"{len(jobs)} job{'s' * (len(jobs) != 1)}; the whole stage estimated at "
-                todo += f"{stage.estimate(plan) / 60:.0f} min"
+                todo += f"{stage.estimate(plan, speed or REFERENCE) / 60:.0f} min"
             log(f"stage {i}/{len(stages)}: {stage.title} ({todo})")
             clock.enter(stage.name)
             executor.run(jobs)
@@ -143,6 +158,11 @@ def _run(plan: Plan, out: Path, command, say, progress, clock: WallClock) -> dic
     results = summary.results(plan, out, outputs, command, _commit())
     results["wall"] = clock.tick()
     results["wall"]["stages_estimate_s"] = {s.name: s.estimate(plan) for s in stages}
+    if speed is not None:
+        wall = results["wall"]
+        wall["machine_speed"] = {"compute": speed.compute, "compile": speed.compile}
+        wall["machine_probe"] = probe
+        wall["stages_estimate_here_s"] = {s.name: s.estimate(plan, speed) for s in stages}
     layout.write_json(out / "results.json", results)
     (out / "report.md").write_text(render_report(results, plan))
     this_min = results["wall"]["this_invocation_s"] / 60

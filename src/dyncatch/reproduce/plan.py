@@ -165,6 +165,12 @@ class Plan:
     one per core; fewer leave cores to other work)."""
     ray_gpus_per_job: float = 0.0
     """With --executor ray: GPUs each job asks Ray for (e.g. 0.5 packs two jobs a GPU)."""
+    probe_machine: bool = True
+    """Before the first stage, time this machine against the one the estimate was fit on
+    (``dyncatch bench machine``, about 5 s: its compute and its compilation apart) and print
+    the estimate for both; ``results.json`` keeps the probe and the scaled estimate beside
+    the measured stages. Not with ``--merge-parts`` (the parts ran elsewhere). Not recorded
+    in plan.json."""
     part: BehaviorName | None = None
     """Run only this trained behaviour's part of the plan into --out
     (dyncatch.reproduce.parts: its predictors, runs, Table I row, Fig. 6 column, Fig. 9
@@ -243,6 +249,7 @@ NOT_RECORDED = (
     "ray_address",
     "ray_workers",
     "ray_gpus_per_job",
+    "probe_machine",
     "part",
     "merge_parts",
 )

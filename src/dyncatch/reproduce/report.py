@@ -314,18 +314,33 @@ def table_ii_markdown(rows: list[dict]) -> str:
 
 def stage_times_markdown(wall: dict) -> str:
     """Each stage's measured wall time (``wall["stages_s"]``) against its estimate
-    (``wall["stages_estimate_s"]``), then the whole run's; a stage with no measurement (its
-    jobs done by an invocation before wall.json counted stages) shows '-'."""
-    lines = ["| stage | estimate | measured | measured / estimate |", "|---|---:|---:|---:|"]
+    (``wall["stages_estimate_s"]``, the reference machine's), and where the run probed its
+    machine, against the estimate scaled to it (``wall["stages_estimate_here_s"]``); then
+    the whole run's. A stage with no measurement (its jobs done by an invocation before
+    wall.json counted stages) shows '-'."""
+    here = wall.get("stages_estimate_here_s")
+    head = "| stage | estimate | measured | measured / estimate |"
+    rule = "|---|---:|---:|---:|"
+    if here:
+        head += " estimate here | measured / estimate here |"
+        rule += "---:|---:|"
+    lines = [head, rule]
 
-    def row(name: str, estimate: float, measured: float | None) -> str:
+    def ratio(measured: float | None, estimate: float) -> str:
         if measured is None:
-            return f"| {name} | {estimate / 60:.1f} min | - | - |"
-        ratio = f"{measured / estimate:.2f}" if estimate > 0 else "-"
-        return f"| {name} | {estimate / 60:.1f} min | {measured / 60:.1f} min | {ratio} |"
+            return "-"
+        return f"{measured / estimate:.2f}" if estimate > 0 else "-"
+
+    def row(name: str, estimate: float, measured: float | None, scaled: float | None) -> str:
+        took = "-" if measured is None else f"{measured / 60:.1f} min"
+        line = f"| {name} | {estimate / 60:.1f} min | {took} | {ratio(measured, estimate)} |"
+        if here:
+            line += f" {scaled / 60:.1f} min | {ratio(measured, scaled)} |"
+        return line
 
     estimates, measured = wall["stages_estimate_s"], wall.get("stages_s", {})
     for name, estimate in estimates.items():
-        lines.append(row(name, estimate, measured.get(name)))
-    lines.append(row("**whole run**", sum(estimates.values()), wall["total_s"]))
+        lines.append(row(name, estimate, measured.get(name), (here or {}).get(name)))
+    total_here = sum(here.values()) if here else None
+    lines.append(row("**whole run**", sum(estimates.values()), wall["total_s"], total_here))
     return "\n".join(lines)

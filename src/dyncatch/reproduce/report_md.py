@@ -191,8 +191,17 @@ def render_report(r: dict, plan: Plan) -> str:
             "",
             "Measured over every invocation of this command (`wall.json`; the time between "
             "stages, the report's included, is in the total only) against the estimate "
-            "printed before the first stage (`reproduce/estimate.py`).",
+            "printed before the first stage (`reproduce/estimate.py`): on the reference machine "
+            "it was fit on and, where the run probed its own (`dyncatch bench machine`), "
+            "scaled to this one.",
             "",
             report.stage_times_markdown(r["wall"]),
         ]
+        if r["wall"].get("machine_speed"):
+            m = r["wall"]["machine_speed"]
+            lines += [
+                "",
+                f"This machine's probe, last invocation: {m['compute']:.2f}x the reference's "
+                f"time to compute, {m['compile']:.2f}x to compile.",
+            ]
     return "\n".join(lines) + "\n"

@@ -18,6 +18,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from dyncatch.bench.speed_probe import REFERENCE, MachineSpeed
 from dyncatch.policies.registry import BASELINES
 from dyncatch.predictor.config import TrainCfg
 from dyncatch.predictor.pipeline import PredictorTrainCfg
@@ -67,8 +68,9 @@ class Stage:
     """The jobs of what is unfinished."""
     collect: Callable[[Plan, Path], object]
     """Its result, read back from the files once its jobs ran."""
-    estimate: Callable[[Plan], float]
-    """Wall seconds on 2 cores of the whole stage."""
+    estimate: Callable[..., float]
+    """Wall seconds of the whole stage: ``estimate(plan)`` on the reference machine (2
+    cores), ``estimate(plan, speed)`` on a machine of that ``MachineSpeed``."""
     enabled: Callable[[Plan], bool] = lambda plan: True
 
 
@@ -346,6 +348,7 @@ def stages_of(plan: Plan) -> tuple[Stage, ...]:
     return tuple(s for s in STAGES if s.enabled(plan))
 
 
-def estimate_s(plan: Plan) -> float:
-    """A rough wall-time estimate (seconds) for the whole plan on 2 cores."""
-    return sum(s.estimate(plan) for s in stages_of(plan))
+def estimate_s(plan: Plan, speed: MachineSpeed = REFERENCE) -> float:
+    """A rough wall-time estimate (seconds) for the whole plan on the reference machine's 2
+    cores, or on a machine of ``speed`` (``bench.speed_probe``)."""
+    return sum(s.estimate(plan, speed) for s in stages_of(plan))
