@@ -139,7 +139,11 @@ def analyse(by_behavior: dict[str, dict]) -> dict:
                        seeds(res, y, PRIMARY_SPEED_MPS))  # fmt: skip
             if row is not None:
                 primary.append({"behavior": b, "pair": [x, y], **row})
-    for row, p in zip(primary, holm([r["p_value"] for r in primary]), strict=True):
+    # Holm over the declared family of four: an endpoint not measured yet enters at p = 1, so
+    # an interim verdict is never less conservative than the final one.
+    missing = len(BEHAVIORS) * len(PRIMARY_PAIRS) - len(primary)
+    adjusted = holm([r["p_value"] for r in primary] + [1.0] * missing)
+    for row, p in zip(primary, adjusted[: len(primary)], strict=True):
         row["p_holm"] = float(p)
         sign = "holds" if row["difference"] > 0 else "reversed"
         row["verdict"] = "unresolved" if p >= 0.05 else sign
@@ -192,7 +196,8 @@ def summarize(args) -> dict:
     lines = [
         "Memory against prediction (benchmarks/memory_study.py; analysis in its docstring).",
         "",
-        "Primary: success at 1.8 m/s, Welch 95 % over seeds, Holm over the four.",
+        "Primary: success at 1.8 m/s, Welch 95 % over seeds, Holm over the four (one not yet",
+        "measured enters at p = 1).",
         "",
         "| behaviour | pair | difference [95 % CI] | half-width | seeds | p (Holm) | verdict |",
         "|---|---|---|---:|---|---:|---|",
@@ -226,6 +231,8 @@ def parser():
     ap.add_argument("--first-seed", type=int, default=0)
     ap.add_argument("--full", type=Path, default=None,
                     help="the full reproduction's part folders (FULL/reactive, ...)")  # fmt: skip
+    ap.add_argument("--behaviors", nargs="+", choices=BEHAVIORS, default=list(BEHAVIORS),
+                    help="run these halves only (each waits for its full-reproduction part)")  # fmt: skip
     ap.add_argument("--workers", type=int, default=2,
                     help="jobs at a time on a local Ray (1: this process)")  # fmt: skip
     return ap
@@ -233,7 +240,7 @@ def parser():
 
 def run(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
-    argvs = [study_argv(args, b) for b in BEHAVIORS]
+    argvs = [study_argv(args, b) for b in args.behaviors]
     return run_study(args, argvs, summarize, before=lambda cmd: link_from_full(args, cmd))
 
 
