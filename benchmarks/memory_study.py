@@ -232,7 +232,7 @@ def parser():
     ap.add_argument("--full", type=Path, default=None,
                     help="the full reproduction's part folders (FULL/reactive, ...)")  # fmt: skip
     ap.add_argument("--behaviors", nargs="+", choices=BEHAVIORS, default=list(BEHAVIORS),
-                    help="run these halves only (each waits for its full-reproduction part)")  # fmt: skip
+                    help="these halves only (run each after its full part)")  # fmt: skip
     ap.add_argument("--workers", type=int, default=2,
                     help="jobs at a time on a local Ray (1: this process)")  # fmt: skip
     return ap
