@@ -2,9 +2,7 @@
 hand-made results (benchmarks/memory_study.py)."""
 
 import dataclasses
-import importlib.util
 import json
-import sys
 from pathlib import Path
 
 import pytest
@@ -13,21 +11,9 @@ from dyncatch.cli.main import parse
 from dyncatch.reproduce.plan import PROFILES
 from dyncatch.reproduce.validate import validate_plan
 
-_BENCH = Path(__file__).resolve().parents[2] / "benchmarks"
+from .benchmark_scripts import load_benchmark
 
-
-def _load(name):
-    sys.path.insert(0, str(_BENCH))  # the studies import their sibling study_io
-    try:
-        spec = importlib.util.spec_from_file_location(name, _BENCH / f"{name}.py")
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-    finally:
-        sys.path.remove(str(_BENCH))
-    return module
-
-
-memory = _load("memory_study")
+memory = load_benchmark("memory_study")
 SPREAD = (-0.02, -0.01, 0.0, 0.01, 0.02)
 
 

@@ -2,8 +2,6 @@
 (benchmarks/network_size_study.py, benchmarks/parity_study.py,
 benchmarks/parity_second_set.py)."""
 
-import importlib.util
-import sys
 from pathlib import Path
 
 import pytest
@@ -11,23 +9,11 @@ import pytest
 from dyncatch.cli.main import parse
 from dyncatch.reproduce.validate import validate_plan
 
-_BENCH = Path(__file__).resolve().parents[2] / "benchmarks"
+from .benchmark_scripts import load_benchmark
 
-
-def _load(name):
-    sys.path.insert(0, str(_BENCH))  # the studies import their sibling study_io
-    try:
-        spec = importlib.util.spec_from_file_location(name, _BENCH / f"{name}.py")
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-    finally:
-        sys.path.remove(str(_BENCH))
-    return module
-
-
-size_study = _load("network_size_study")
-parity_study = _load("parity_study")
-second_set = _load("parity_second_set")
+size_study = load_benchmark("network_size_study")
+parity_study = load_benchmark("parity_study")
+second_set = load_benchmark("parity_second_set")
 
 SEEDS = (-0.02, -0.01, 0.0, 0.01, 0.02)
 
@@ -190,7 +176,7 @@ def test_the_full_pass_runs_first_the_setting_that_resolvedly_lowers_rl(tmp_path
 def test_the_speed_profile_reads_the_folder_with_most_seeds_and_averages_over_them(tmp_path):
     import json
 
-    profile = _load("speed_profile")
+    profile = load_benchmark("speed_profile")
     study = tmp_path / "study"
     for folder, seeds in (("success_every_step", 5), ("primary_s10/success_every_step", 10)):
         (study / folder).mkdir(parents=True)
