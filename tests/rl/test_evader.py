@@ -9,6 +9,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from safetensors.numpy import load_file
 
 from dyncatch.cli.main import main
 from dyncatch.policies.intercept import intercept_policy
@@ -18,9 +19,11 @@ from dyncatch.rl.evader import EvaderRewardCfg, evader_env
 from dyncatch.rl.evader_train import (
     LAST_CHECKPOINT,
     SELECTION_FILE,
+    TRAIN_STATE,
     EvaderTrainCfg,
     evader_net_of,
     held_out_escape,
+    resumable,
     train_evader,
 )
 from dyncatch.rl.train import make_train, to_command
@@ -343,6 +346,57 @@ def test_select_every_keeps_the_best_held_out_iterate(tmp_path):
     wide.params["params"]["log_std"] = ts.params["params"]["log_std"] + 3.0
     key = jax.random.key(3)
     assert held_out_escape(ts, net, env, key, 16) == held_out_escape(wide, net, env, key, 16)
+
+
+def _files(out):
+    """A run folder's numbers: metrics.csv less its clock, selection.json, every array."""
+    rows = [r.split(",") for r in (out / "metrics.csv").read_text().splitlines()]
+    clock = rows[0].index("time_s")
+    arrays = {
+        name: load_file(out / name) for name in (EVADER_CHECKPOINT, LAST_CHECKPOINT, TRAIN_STATE)
+    }
+    selection = json.loads((out / SELECTION_FILE).read_text())
+    return [r[:clock] + r[clock + 1 :] for r in rows], selection, arrays
+
+
+def test_a_resumed_run_is_the_uninterrupted_one(tmp_path):
+    # Four iterations straight, against two and then --resume to four (a longer
+    # --total-steps may be given on resume): the same rows, candidates and arrays, with the
+    # best iterate selected every 2nd iteration.
+    world = WORLD.replace(episode=WORLD.episode.replace(duration_s=2.0))
+    steps = TINY.batch_size
+    cfg = EvaderTrainCfg(
+        total_steps=4 * steps, out=tmp_path / "a", ppo=TINY, world=world, select_every=2,
+        select_episodes=6, checkpoint_every=3,
+    )  # fmt: skip
+    straight = train_evader(cfg)
+    half = dataclasses.replace(cfg, out=tmp_path / "b", total_steps=2 * steps)
+    train_evader(half)
+    assert read_header(tmp_path / "b" / TRAIN_STATE)["seed"] == 0
+    with pytest.raises(ValueError, match="pass --resume"):
+        train_evader(dataclasses.replace(half, total_steps=4 * steps))
+    with pytest.raises(ValueError, match=r"--seed \(0 -> 1\)"):
+        train_evader(dataclasses.replace(half, seed=1, resume=True))
+    resumed = train_evader(dataclasses.replace(half, total_steps=4 * steps, resume=True))
+    assert {k: v for k, v in resumed.items() if k != "time_s"} == {
+        k: v for k, v in straight.items() if k != "time_s"
+    }
+    (rows_a, sel_a, arrays_a), (rows_b, sel_b, arrays_b) = _files(cfg.out), _files(half.out)
+    assert rows_a == rows_b and len(rows_a) == 5 and sel_a == sel_b
+    for name, arrays in arrays_a.items():
+        assert arrays.keys() == arrays_b[name].keys()
+        for k, v in arrays.items():
+            np.testing.assert_array_equal(v, arrays_b[name][k], err_msg=f"{name} {k}")
+    # Resumed at its end, it trains nothing and returns its last row.
+    again = train_evader(dataclasses.replace(half, total_steps=4 * steps, resume=True))
+    assert again["success_rate"] == straight["success_rate"]
+    with pytest.raises(ValueError, match="is missing"):
+        train_evader(dataclasses.replace(cfg, out=tmp_path / "c", resume=True))
+    # A cached pipeline's stage (the self-play rounds) continues a matching state and
+    # clears a folder whose state was made otherwise.
+    assert resumable(dataclasses.replace(half, total_steps=8 * steps)).resume
+    other = resumable(dataclasses.replace(half, seed=1))
+    assert not other.resume and not half.out.exists()
 
 
 @pytest.mark.parametrize(("field", "value"), [("select_every", -1), ("select_episodes", 0)])

@@ -242,6 +242,23 @@ class TestResume:
         with pytest.raises(ValueError, match=r"stage s .*--steps \(1 -> 2\)"):
             run_stage(other)
 
+    def test_an_interrupted_stage_is_cleared_unless_it_continues_itself(self, tmp_path):
+        def make(p):
+            stage.out.mkdir(exist_ok=True)
+            return {"found": sorted(f.name for f in stage.out.iterdir())}
+
+        for keeps, found in ((False, []), (True, ["partial"])):
+            stage = Stage("s", tmp_path / f"s{keeps}", {}, make, keeps_partial=keeps)
+            stage.out.mkdir()
+            (stage.out / "partial").write_text("")
+            assert run_stage(stage)["result"] == {"found": found}
+        # The evaders' stages continue from their training state (rl.evader_train.resumable;
+        # tests/rl/test_evader.py), the pursuers' start again.
+        stages = SelfPlayRunner(tiny(tmp_path / "study")).round_stages(0)
+        kept = {s.name.split("/")[1] for s in stages if s.keeps_partial}
+        assert kept == {"evader", "exploit"}
+        assert not any(s.keeps_partial for s in stages if "/pursuer/" in s.name)
+
 
 class TestBadInput:
     @pytest.mark.parametrize(

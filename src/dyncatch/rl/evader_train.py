@@ -1,5 +1,6 @@
 """Train an evader against a frozen pursuer: ``train_evader(cfg)`` writes the checkpoint the
-``learned`` behaviour loads (``OUT/evader.safetensors``) and ``OUT/metrics.csv``.
+``learned`` behaviour loads (``OUT/evader.safetensors``), ``OUT/metrics.csv`` and, for
+``--resume``, the whole training state (``OUT/train_state.safetensors``).
 
 The PPO is ``rl.train.make_train`` over ``rl.evader.EvaderEnv``, unchanged; only the actor
 and the observation normaliser are exported (``sim.behaviors.evader_net``), with a header
@@ -10,7 +11,9 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import json
 import math
+import shutil
 import time
 from pathlib import Path
 
@@ -25,6 +28,7 @@ from dyncatch.rl.guard import check_finite
 from dyncatch.rl.logging import MetricLog
 from dyncatch.rl.networks import ActorCritic
 from dyncatch.rl.policy import LearnedPolicy, load_run
+from dyncatch.rl.stages import diff_message
 from dyncatch.rl.train import TrainState, as_stepper, flat_obs, make_train
 from dyncatch.sim.behaviors.evader_net import (
     EVADER_CHECKPOINT,
@@ -35,10 +39,10 @@ from dyncatch.sim.behaviors.evader_net import (
 from dyncatch.sim.behaviors.learned import TURN_LIMIT_RAD, ActionFrame, check_fov, feature_names
 from dyncatch.sim.config import WorldCfg
 from dyncatch.sim.validate import validate_world
-from dyncatch.utils.config_io import config_diff
-from dyncatch.utils.files import check_out_dir, write_json
+from dyncatch.utils.config_io import config_diff, to_json
+from dyncatch.utils.files import check_out_dir, read_json, write_json
 from dyncatch.utils.progress import NoProgress, Progress
-from dyncatch.utils.tree_io import TreeFileError
+from dyncatch.utils.tree_io import TreeFileError, load_tree, read_header, save_tree
 
 EVADER_PPO = PPOCfg(num_envs=256, num_steps=32, hidden_sizes=(64, 64))
 """The evader's PPO: the pursuer's defaults but a small network (11 inputs, one output: two
@@ -71,7 +75,13 @@ class EvaderTrainCfg:
     """Run folder: evader.safetensors (load it with --behavior learned
     --world.target.evader-checkpoint OUT) and metrics.csv."""
     checkpoint_every: int = 20
-    """Iterations between checkpoints (one is always written at the end)."""
+    """Iterations between checkpoints (one is always written at the end): the evader and
+    the whole training state (train_state.safetensors, which --resume continues)."""
+    resume: bool = False
+    """Continue the run in --out from its training state (train_state.safetensors) with the
+    same flags (--total-steps, --checkpoint-every and --out may change): the iterations
+    after it are those of an uninterrupted run, to the bit on one machine, and metrics.csv
+    drops its rows past it. Without --resume an existing run is refused."""
     select_every: int = 0
     """Keep the best iterate instead of the last: every this many iterations (and at the
     end) the deterministic evader plays --select-episodes held-out episodes of its training
@@ -251,6 +261,74 @@ LAST_CHECKPOINT = "evader_last.safetensors"
 can be compared on the same seed."""
 SELECT_STREAM = 0x5E1EC7
 """The held-out selection episodes' keys are the training seed folded with this."""
+TRAIN_STATE = "train_state.safetensors"
+"""The whole PPO state (actor, critic, optimiser, normaliser, environments, key) at the
+last checkpoint, with ``resume_header``: what --resume continues. evader.safetensors is
+the deployable actor alone."""
+NOT_RESUME_FIELDS = ("out", "resume", "checkpoint_every", "total_steps")
+"""Fields of ``EvaderTrainCfg`` a resumed run may change: where it lives, how often it
+saves, and how long it trains (a finished run can be extended)."""
+
+
+def resume_header(cfg: EvaderTrainCfg) -> dict:
+    """What the training state records, and a resumed run must agree on: the config less
+    ``NOT_RESUME_FIELDS``."""
+    return {k: v for k, v in to_json(cfg).items() if k not in NOT_RESUME_FIELDS}
+
+
+def load_train_state(cfg: EvaderTrainCfg, template) -> TrainState:
+    """The training state in ``cfg.out``, refused (naming the fields, as flags) if it was
+    trained with other settings; ``template`` is an (abstract) state of this config."""
+    path = cfg.out / TRAIN_STATE
+    if not path.exists():
+        raise ValueError(
+            f"--resume: {path} is missing (an evader run written before it was kept, or "
+            "interrupted before its first checkpoint): train it again without --resume in a "
+            "new --out"
+        )
+    try:
+        ts, saved = load_tree(path, template)
+    except TreeFileError as err:
+        raise ValueError(f"--resume: {err}; resume with the same flags") from None
+    msg = diff_message(
+        saved, resume_header(cfg), str(path), "resume with the same flags or choose another --out"
+    )
+    if msg:
+        raise ValueError(msg)
+    return ts
+
+
+def resumable(cfg: EvaderTrainCfg) -> EvaderTrainCfg:
+    """``cfg`` set to continue the interrupted run in its folder when that run's training
+    state matches it, else with the folder cleared: for a cached pipeline's own folders
+    (the self-play rounds' evader stages), never a user's ``--out``."""
+    path = cfg.out / TRAIN_STATE
+    if path.exists():
+        try:
+            if read_header(path) == json.loads(json.dumps(resume_header(cfg))):
+                return dataclasses.replace(cfg, resume=True)
+        except TreeFileError:
+            pass
+    if cfg.out.exists():
+        shutil.rmtree(cfg.out)
+    return dataclasses.replace(cfg, resume=False)
+
+
+def _resumed_selection(cfg: EvaderTrainCfg, start: int) -> dict:
+    """--select-every's record as it stood at iteration ``start``: the candidates after it
+    (scored after the state was saved) are dropped and played again."""
+    selection: dict = {"episodes": cfg.select_episodes, "iterations": [], "escape": []}
+    path = cfg.out / SELECTION_FILE
+    if not (cfg.resume and path.exists()):
+        return selection
+    had = read_json(path, "delete it and resume")
+    for it, escape in zip(had.get("iterations", []), had.get("escape", []), strict=True):
+        if it <= start:
+            if not selection["escape"] or escape > max(selection["escape"]):
+                selection.update(selected_iteration=it, selected_escape=escape)
+            selection["iterations"].append(it)
+            selection["escape"].append(escape)
+    return selection
 
 
 def held_out_escape(ts: TrainState, net: ActorCritic, env, key: jax.Array, episodes: int) -> float:
@@ -263,12 +341,13 @@ def held_out_escape(ts: TrainState, net: ActorCritic, env, key: jax.Array, episo
 
 
 def train_evader(cfg: EvaderTrainCfg, progress: Progress | None = None) -> dict[str, float]:
-    """Train to ``total_steps`` and write ``out/evader.safetensors``; returns the last
-    iteration's metrics (``success_rate`` is the evader's: episodes it ran out uncaught)."""
+    """Train to ``total_steps`` (from the saved state with ``resume``) and write
+    ``out/evader.safetensors``; returns the last iteration's metrics (``success_rate`` is the
+    evader's: episodes it ran out uncaught)."""
     _validate(cfg)
     path = cfg.out / EVADER_CHECKPOINT
-    if path.exists():
-        raise ValueError(f"{path} exists: choose another --out (evader runs do not resume)")
+    if not cfg.resume and (path.exists() or (cfg.out / TRAIN_STATE).exists()):
+        raise ValueError(f"{path} exists: pass --resume to continue it or choose another --out")
     pursuers = [load_pursuer(name, cfg.world) for name in cfg.against]
     env = evader_env(
         cfg.world,
@@ -281,19 +360,29 @@ def train_evader(cfg: EvaderTrainCfg, progress: Progress | None = None) -> dict[
         cfg.speed_action,
     )
     weights, skeleton = split_arrays(env)
-    ts = evader_init(weights, jax.random.key(cfg.seed), skeleton, cfg.ppo)
-    header = evader_header(cfg)
+    key = jax.random.key(cfg.seed)
+    if cfg.resume:
+        template = jax.eval_shape(lambda k: evader_init(weights, k, skeleton, cfg.ppo), key)
+        ts = load_train_state(cfg, template)
+    else:
+        ts = evader_init(weights, key, skeleton, cfg.ppo)
+    start = int(ts.iteration)
+    header, state_header = evader_header(cfg), resume_header(cfg)
     total_iters = -(-cfg.total_steps // cfg.ppo.batch_size)
-    update = (progress or NoProgress()).task(f"evader vs {'+'.join(cfg.against)}", total_iters)
-    update(0, "compiling")
+    update = (progress or NoProgress()).task(
+        f"evader vs {'+'.join(cfg.against)}", total_iters, start
+    )
+    update(start, "compiling")
     cfg.out.mkdir(parents=True, exist_ok=True)
-    log = MetricLog(cfg.out, 0, ("csv",), header)
-    metrics: dict[str, float] = {}
-    select_key = jax.random.fold_in(jax.random.key(cfg.seed), SELECT_STREAM)
+    log = MetricLog(cfg.out, start, ("csv",), header)
+    # A run resumed at its end trains nothing: its final metrics are the last logged.
+    metrics: dict[str, float] = log.last_row() if start >= total_iters else {}
+    select_key = jax.random.fold_in(key, SELECT_STREAM)
     select_env = skeleton.fill(weights)
     select_net = make_train(select_env, cfg.ppo)[2]
-    selection: dict = {"episodes": cfg.select_episodes, "iterations": [], "escape": []}
-    clock0 = time.perf_counter()
+    selection = _resumed_selection(cfg, start)
+    clock0 = time.perf_counter() - log.last("time_s")  # continued across resumes
+    saved = start if cfg.resume else None  # the iteration of the training state on disk
 
     def save(to=path):
         net = evader_net_of(
@@ -302,14 +391,15 @@ def train_evader(cfg: EvaderTrainCfg, progress: Progress | None = None) -> dict[
         save_evader(to, net)
 
     try:
-        for it in range(total_iters):
+        for it in range(start, total_iters):
             ts, m = evader_iterate(weights, ts, skeleton, cfg.ppo)
             metrics = {k: float(v) for k, v in jax.device_get(m).items()}
-            check_finite(ts.params, ts.norm, metrics, it + 1, path, None)
+            check_finite(ts.params, ts.norm, metrics, it + 1, cfg.out / TRAIN_STATE, saved)
             last = it + 1 == total_iters
             if cfg.select_every:  # a column of its own, empty between candidates
                 metrics["held_out_escape"] = math.nan
-            if cfg.select_every and ((it + 1) % cfg.select_every == 0 or last):
+            selected = cfg.select_every and ((it + 1) % cfg.select_every == 0 or last)
+            if selected:
                 escape = held_out_escape(
                     ts, select_net, select_env, select_key, cfg.select_episodes
                 )
@@ -325,8 +415,13 @@ def train_evader(cfg: EvaderTrainCfg, progress: Progress | None = None) -> dict[
             metrics["time_s"] = time.perf_counter() - clock0
             log.write(it + 1, int(ts.env_steps), metrics)
             update(it + 1, f"escaped {metrics['success_rate']:.2f}")
-            if not cfg.select_every and ((it + 1) % cfg.checkpoint_every == 0 or last):
+            checkpoint = (it + 1) % cfg.checkpoint_every == 0 or last
+            if checkpoint and not cfg.select_every:
                 save()
+            # The state after the files it goes with: a resume never skips a saved candidate.
+            if checkpoint or selected:
+                save_tree(cfg.out / TRAIN_STATE, ts, state_header)
+                saved = it + 1
     finally:
         log.close()
     return metrics

@@ -38,7 +38,7 @@ from dyncatch.rl.cross_eval import (
     difference_table,
     evaluate_runs,
 )
-from dyncatch.rl.evader_train import EvaderTrainCfg, train_evader
+from dyncatch.rl.evader_train import EvaderTrainCfg, resumable, train_evader
 from dyncatch.rl.exploitability import (
     best_response_world,
     evaluate_pursuer,
@@ -155,7 +155,7 @@ class SelfPlayRunner:
         """Round ``k``'s stages in the order they run."""
         cfg = self.cfg
         ev = evader_cfg(cfg, k)
-        stages = [Stage(f"round{k}/evader", ev.out, to_json(ev), lambda p: train_evader(ev, p))]
+        stages = [_evader_stage(f"round{k}/evader", ev)]
         for method in cfg.methods:
             pc = pursuer_cfg(cfg, k, method)
             stages.append(Stage(f"round{k}/pursuer/{method}", pc.out, to_json(pc), _trainer(pc)))
@@ -189,7 +189,7 @@ class SelfPlayRunner:
             )
 
         return [
-            Stage(f"round{k}/exploit/{name}", br.out, to_json(br), lambda p: train_evader(br, p)),
+            _evader_stage(f"round{k}/exploit/{name}", br),
             Stage(f"round{k}/eval/{name}", cfg.out / f"round{k}" / "eval" / name, spec, evaluate),
         ]
 
@@ -284,6 +284,14 @@ def write_summary(out: Path, summary: dict) -> None:
         if table:
             lines += ["", f"## {title}", "", *table]
     (out / "summary.md").write_text("\n".join(lines) + "\n")
+
+
+def _evader_stage(name: str, cfg: EvaderTrainCfg) -> Stage:
+    """An evader's training as a stage that continues an interrupted run from its saved
+    training state (``evader_train.resumable``)."""
+    return Stage(
+        name, cfg.out, to_json(cfg), lambda p: train_evader(resumable(cfg), p), keeps_partial=True
+    )
 
 
 def _trainer(pc: TrainRunCfg):

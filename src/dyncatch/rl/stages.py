@@ -4,7 +4,8 @@ A stage is a folder, the JSON spec of everything that makes it, and a function t
 the folder. ``run_stage`` skips a stage whose ``done.json`` exists (written atomically after
 the stage's files, so a stage that has one is whole) and refuses one whose ``done.json``
 records another spec, naming the differing fields; a folder without ``done.json`` was
-interrupted, and is cleared and made again.
+interrupted, and is cleared and made again, unless the stage continues it itself
+(``Stage.keeps_partial``: an evader run from its saved training state).
 """
 
 from __future__ import annotations
@@ -53,6 +54,9 @@ class Stage:
     make: Callable[[Progress | None], Any]
     """Fills ``out`` (reporting to the progress it is given); returns a JSON-able result
     kept in ``done.json``."""
+    keeps_partial: bool = False
+    """``make`` continues an interrupted folder itself (and clears what it cannot use), so
+    ``run_stage`` leaves it in place; False: the folder is cleared first."""
 
 
 def stage_done(stage: Stage) -> dict | None:
@@ -75,11 +79,11 @@ def stage_done(stage: Stage) -> dict | None:
 
 def run_stage(stage: Stage, progress: Progress | None = None) -> dict:
     """``done.json`` of the stage: read when finished, else made (a partial folder is
-    cleared first) and written after the stage's own files."""
+    cleared first, unless the stage keeps it) and written after the stage's own files."""
     done = stage_done(stage)
     if done is not None:
         return {**done, "skipped": True}
-    if stage.out.exists():
+    if stage.out.exists() and not stage.keeps_partial:
         shutil.rmtree(stage.out)
     clock0 = time.perf_counter()
     result = stage.make(progress)
