@@ -23,6 +23,7 @@ PREFIXES = {
     "bench ppo": ["bench", "ppo"],
     "predictor train": ["predictor", "train"],
     "predictor table": ["predictor", "table"],
+    "predictor score": ["predictor", "score", "p.safetensors"],
 }
 
 

@@ -1,4 +1,4 @@
-"""``dyncatch predictor train|table`` end to end on tiny budgets."""
+"""``dyncatch predictor train|table|score`` end to end on tiny budgets."""
 
 from __future__ import annotations
 
@@ -28,6 +28,27 @@ def test_train_writes_a_loadable_checkpoint_and_a_loss_log(tmp_path, capsys):
         "200",
     ]
     assert list((out / "tb").iterdir())  # a TensorBoard event file
+    # Scored in its own world with its seed and held-out steps: its own error, to the bit;
+    # on another target: that target's row, naming the one it was trained on. Several
+    # predictors are scored on one collection: the same file twice gives one error twice.
+    ckpt = str(out / "predictor.safetensors")
+    assert main(["predictor", "score", ckpt, "--behavior", "circle", "--eval-steps", "2500"]) == 0
+    own = json.loads(capsys.readouterr().out)
+    assert own["error_mps"] == metrics["error_mps"] and own["kind"] == "vanilla"
+    assert own["eval_samples"] == metrics["eval_samples"]
+    argv = ["predictor", "score", ckpt, ckpt, "--behavior", "bounce", "--eval-steps", "2500"]
+    assert main(argv) == 0
+    rows = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert len(rows) == 2 and rows[0] == rows[1]
+    other = rows[0]
+    assert (other["behavior"], other["trained_on"]) == ("bounce", "circle")
+    assert other["trained_on_params"] == {"circle_radius_m": 5.0}
+    assert 0 <= other["error_mps"] < 5 and other["error_mps"] != own["error_mps"]
+    # A folder, or a world the predictor's inputs were not scaled for, is a one-line error.
+    assert main(["predictor", "score", str(out)]) == 2
+    assert "give the predictor's checkpoint file" in capsys.readouterr().err
+    assert main(["predictor", "score", ckpt, "--world.arena.size-m", "20"]) == 2
+    assert "--world.arena.size-m" in capsys.readouterr().err
 
 
 def test_table_json_has_one_row_per_cell(tmp_path, capsys):

@@ -29,7 +29,13 @@ from dyncatch.cli.evader import run_evader_selfplay, run_evader_train
 from dyncatch.cli.eval import EvalCmd, run_eval, run_world_default
 from dyncatch.cli.export import ExportCmd, run_export
 from dyncatch.cli.plot import PlotCmd, run_plot
-from dyncatch.cli.predictor import PredictorTableCmd, run_predictor_table, run_predictor_train
+from dyncatch.cli.predictor import (
+    PredictorScoreCmd,
+    PredictorTableCmd,
+    run_predictor_score,
+    run_predictor_table,
+    run_predictor_train,
+)
 from dyncatch.cli.render import RenderCmd, run_render
 from dyncatch.cli.reproduce import run_reproduce
 from dyncatch.cli.train import run_train
@@ -84,6 +90,7 @@ COMMANDS: dict[str, Command | Group] = {
         {
             "train": Command(PredictorTrainCfg, run_predictor_train),
             "table": Command(PredictorTableCmd, run_predictor_table),
+            "score": Command(PredictorScoreCmd, run_predictor_score),
         },
     ),
 }

@@ -1,4 +1,4 @@
-"""``dyncatch predictor train`` and ``dyncatch predictor table`` (Section III-B, Table II).
+"""``dyncatch predictor train``, ``table`` (Section III-B, Table II) and ``score``.
 
 The pipelines live in ``dyncatch.predictor``; this module turns flags into their configs and
 attaches a progress display.
@@ -11,6 +11,8 @@ import json
 import time
 from pathlib import Path
 
+import tyro
+
 from dyncatch.cli.progress import rich_progress
 from dyncatch.predictor.config import (
     TRACKER,
@@ -22,7 +24,7 @@ from dyncatch.predictor.config import (
     validate,
 )
 from dyncatch.predictor.data import check_world
-from dyncatch.predictor.pipeline import PredictorTrainCfg, train_predictor
+from dyncatch.predictor.pipeline import PredictorTrainCfg, score_predictors, train_predictor
 from dyncatch.predictor.table import (
     TRACKER_KEYS,
     TableCfg,
@@ -49,6 +51,33 @@ def run_predictor_train(cfg: PredictorTrainCfg) -> dict:
         metrics = train_predictor(cfg, progress)
     print(json.dumps(metrics))
     return metrics
+
+
+@dataclasses.dataclass(frozen=True)
+class PredictorScoreCmd:
+    """Score saved predictors on one set of held-out episodes of any target (--behavior and
+    the --world.* flags): predictors of one target measured on another. Prints one JSON
+    object per predictor: the target scored, the one trained on, kind, eval_samples,
+    error_mps."""
+
+    predictors: tyro.conf.Positional[tuple[Path, ...]]
+    """The predictors' checkpoints (OUT/predictor.safetensors of dyncatch predictor train)."""
+    eval_steps: int = 200_000
+    """Interaction steps of the held-out episodes (predictor train's default)."""
+    seed: int = 0
+    """Seed of the held-out episodes: the stream predictor train holds out with the same
+    seed, so its own world, seed and --eval-steps give its metrics.json error again."""
+    collect: CollectCfg = CollectCfg()
+    """Interaction data."""
+    world: WorldCfg = WorldCfg()
+    """The world scored in, its target behaviour included (--behavior)."""
+
+
+def run_predictor_score(cmd: PredictorScoreCmd) -> list[dict]:
+    rows = score_predictors(cmd.predictors, cmd.world, cmd.eval_steps, cmd.seed, cmd.collect)
+    for row in rows:
+        print(json.dumps(row))
+    return rows
 
 
 @dataclasses.dataclass(frozen=True)

@@ -3,6 +3,8 @@
 ``train_predictor(cfg, progress)`` writes ``predictor.safetensors``, ``loss.csv``,
 ``metrics.json`` and TensorBoard events under ``cfg.out`` and returns the metrics; it prints
 nothing. ``dyncatch predictor train`` and the reproduction both call it.
+``score_predictors(paths, world, ...)`` measures saved predictors on another world's held-out
+episodes (a predictor of one target scored on another: ``dyncatch predictor score``).
 """
 
 from __future__ import annotations
@@ -65,12 +67,70 @@ class PredictorTrainCfg:
     """The tracker's interaction data (kind tracker; collect is unused)."""
 
 
+def _keys(seed: int):
+    """(data, held-out, fit) keys of a seed: held-out episodes never share the training's."""
+    import jax
+
+    return jax.random.split(jax.random.key(seed), 3)
+
+
+def score_predictors(
+    paths: list[str | Path] | tuple[str | Path, ...],
+    world: WorldCfg,
+    eval_steps: int = 200_000,
+    seed: int = 0,
+    collect_cfg: CollectCfg | None = None,
+) -> list[dict]:
+    """The error of each frame predictor saved at ``paths`` on one set of held-out episodes
+    of ``world`` (its behaviour included), collected as ``train_predictor`` collects its own
+    with the same ``seed``: scored in the world it was trained in, with its seed and
+    ``eval_steps``, a predictor gives its ``metrics.json`` error again. One row each: the
+    target scored (``behavior``, ``behavior_params``), the one trained on (``trained_on``,
+    ``trained_on_params``, from the checkpoint's info), ``kind``, ``eval_samples``,
+    ``error_mps``. A tracker is refused (its errors are positions over time: ``dyncatch
+    predictor table --kinds tracker``); every file is checked before anything is collected."""
+    if not paths:
+        raise ValueError("give at least one predictor checkpoint")
+    if eval_steps < 1:
+        raise ValueError(f"--eval-steps {eval_steps}: give a positive number of steps")
+    collect_cfg = collect_cfg or CollectCfg()
+    check_world(world, [world.target.behavior], [eval_steps], collect_cfg)
+    loaded = []
+    for path in map(Path, paths):
+        predictor, params = checkpoint.load_any(path, world)
+        if not isinstance(predictor, Predictor):
+            raise ValueError(
+                f"{path} is a tracker: predictor score measures frame predictors (vanilla, "
+                "self_aware); measure a tracker with dyncatch predictor table --kinds tracker"
+            )
+        loaded.append((path, predictor, params, checkpoint.read_info(path)))
+    held_out, _ = collect(_keys(seed)[1], world, collect_cfg, eval_steps)
+    scored = {
+        "behavior": world.target.behavior,
+        "behavior_params": get_behavior(world.target.behavior).params(world.target),
+        "eval_samples": len(held_out.label_mps),
+    }
+    rows = []
+    for path, predictor, params, info in loaded:
+        encoded = encode_samples(predictor, held_out)
+        rows.append(
+            {
+                "predictor": str(path),
+                "trained_on": info.get("behavior"),
+                "trained_on_params": info.get("behavior_params", {}),
+                **scored,
+                "kind": predictor.cfg.kind,
+                "error_mps": evaluate(predictor, params, encoded, held_out.label_mps),
+            }
+        )
+    return rows
+
+
 def train_predictor(cfg: PredictorTrainCfg, progress: Progress | None = None) -> dict:
     """Run the pipeline; returns ``{"behavior", "behavior_params", "kind", "budget_steps",
     "train_samples", "eval_samples", "error_mps", "seconds"}`` (also written to
     ``metrics.json`` and the checkpoint's info); ``behavior_params`` are the behaviour's own
     fields (``learned``: its evader file)."""
-    import jax
     from tensorboardX import SummaryWriter
 
     if cfg.kind == TRACKER:
@@ -81,7 +141,7 @@ def train_predictor(cfg: PredictorTrainCfg, progress: Progress | None = None) ->
     check_world(cfg.world, [cfg.world.target.behavior], [cfg.steps], cfg.collect)
     world = cfg.world
     predictor = Predictor.for_world(predictor_cfg, world)
-    k_data, k_eval, k_fit = jax.random.split(jax.random.key(cfg.seed), 3)
+    k_data, k_eval, k_fit = _keys(cfg.seed)
     cfg.out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     update = progress.task(f"collecting ({world.target.behavior}, {cfg.kind})", cfg.steps)
