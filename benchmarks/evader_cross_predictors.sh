@@ -3,7 +3,10 @@
 # pursuit, seeds 0 and 1; against intercept, seed 0; 5 M steps each), a vanilla and a
 # self-aware predictor of each and of the reactive target (2 M steps, seed 0), all in the
 # evaders' world (caps in [1.4, 1.8] m/s), then every predictor scored on 500 k held-out steps
-# of every target (dyncatch predictor score). Cached: a finished evader or predictor is kept.
+# of every target (dyncatch predictor score). Then self-aware predictors of leagues of
+# evaders (each evader left out in turn, and all three; --behavior league, evaders only, even
+# weights), scored on every evader: does a predictor of several evaders predict a new one?
+# Cached: a finished evader or predictor is kept.
 #   bash benchmarks/evader_cross_predictors.sh OUT
 #   .venv/bin/python benchmarks/score_table.py OUT/scores.jsonl
 set -euo pipefail
@@ -27,6 +30,14 @@ for t in $targets; do
     else $B predictor train --behavior learned --world.target.evader-checkpoint "$D/$t" \
       --kind $k $W --out "$o"; fi
   done
+done
+evaders=(evader_pursuit_5m_s0 evader_pursuit_5m_s1 evader_intercept_5m_s0)
+for out in "${evaders[@]}" none; do
+  members=(); for e in "${evaders[@]}"; do [ "$e" != "$out" ] && members+=("$D/$e"); done
+  o=$D/pred/league_without_${out}_self_aware
+  [ -f "$o/predictor.safetensors" ] && continue
+  $B predictor train --behavior league --world.target.league-evaders "${members[@]}" \
+    --world.target.league-behaviors --kind self_aware $W --out "$o"
 done
 P=$(ls "$D"/pred/*/predictor.safetensors)
 : > "$D/scores.jsonl"

@@ -1,6 +1,7 @@
 """The rows of ``dyncatch predictor score`` (one JSON object a line) as a Markdown matrix:
 one row per predictor (the target it was trained on, its kind), one column per target
-scored, the error ||v_hat - v|| in m/s; a learned evader is named by its run folder.
+scored, the error ||v_hat - v|| in m/s; a learned evader is named by its run folder, a
+league by its members (``league(reactive+ev_a+ev_b)``).
 
     .venv/bin/python benchmarks/score_table.py ROWS.jsonl [...] [--out TABLE.md]
 """
@@ -13,10 +14,19 @@ import os
 from pathlib import Path
 
 
+def _folder(path: str) -> str:
+    return os.path.basename(os.path.normpath(path))
+
+
 def target_name(behavior: str, params: dict) -> str:
-    """A target's name: its behaviour, or a learned evader's run folder."""
-    evader = params.get("evader_checkpoint") if params else None
-    return os.path.basename(os.path.normpath(evader)) if evader else behavior
+    """A target's name: its behaviour, a learned evader's run folder, or a league's
+    members (scripted first, then evaders by folder)."""
+    params = params or {}
+    if "league_evaders" in params:
+        members = [*params.get("league_behaviors", []), *map(_folder, params["league_evaders"])]
+        return f"league({'+'.join(members)})"
+    evader = params.get("evader_checkpoint")
+    return _folder(evader) if evader else behavior
 
 
 def matrix(rows: list[dict]) -> str:

@@ -44,6 +44,12 @@ def test_a_matrix_with_evaders_named_by_folder_and_the_diagonal_marked(tmp_path,
     assert capsys.readouterr().out == text == (tmp_path / "t.md").read_text()
 
 
+def test_a_league_is_named_by_its_members():
+    params = {"league_behaviors": ["reactive"], "league_evaders": ["/r/ev_a", "/r/ev_b/"]}
+    assert score_table.target_name("league", params) == "league(reactive+ev_a+ev_b)"
+    assert score_table.target_name("circle", {"circle_radius_m": 5.0}) == "circle"
+
+
 def test_a_cell_scored_twice_is_refused():
     row = _row("circle", {}, "bounce", {}, "vanilla", 0.3)
     with pytest.raises(ValueError, match="twice"):
