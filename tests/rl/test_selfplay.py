@@ -6,6 +6,7 @@ row by hand."""
 import dataclasses
 import json
 import math
+from pathlib import Path
 
 import jax
 import numpy as np
@@ -23,6 +24,7 @@ from dyncatch.rl.selfplay import SelfPlayRunner
 from dyncatch.rl.selfplay_cfg import SelfPlayCfg
 from dyncatch.rl.stages import Stage, run_stage, stage_done
 from dyncatch.sim.behaviors.evader_net import EVADER_CHECKPOINT
+from dyncatch.utils.config_io import to_json
 from dyncatch.utils.tree_io import read_header
 
 # 8 environments: the gated reset and arm step (sim.gate) have one compact sub-batch besides
@@ -278,6 +280,11 @@ class TestBadInput:
             ({"evader_fov_rad": 0.0}, "--evader-fov-rad"),
             ({"evader_select_every": -1}, "--evader-select-every -1"),
             ({"evader_select_episodes": 0}, "--evader-select-episodes 0"),
+            ({"predictor_steps": -1}, "--predictor-steps -1"),
+            (
+                {"methods": ("sp_rl",), "predictor_steps": 10, "predictor": Path("p")},
+                "--predictor and --predictor-steps both",
+            ),
         ],
     )
     def test_names_the_flag(self, tmp_path, fields, words):
@@ -288,6 +295,46 @@ class TestBadInput:
     def test_the_cli_says_it(self, tmp_path, capsys):
         assert main(["evader", "selfplay", "--out", str(tmp_path / "x"), "--rounds", "0"]) == 2
         assert "--rounds 0" in capsys.readouterr().err
+
+
+def test_each_round_can_train_the_predictor_its_pursuers_read(tmp_path):
+    # --predictor-steps: after round k's evader, a predictor of each kind the methods read,
+    # trained on the round's league (evaders 0..k and the scripted members), read by that
+    # round's p_rl / sp_rl; rl reads none.
+    cfg = tiny(tmp_path / "x", methods=("rl", "sp_rl", "p_rl"), predictor_steps=5000)
+    stages = SelfPlayRunner(cfg).round_stages(1)
+    names = [s.name for s in stages[:5]]
+    assert names == [
+        "round1/evader",
+        "round1/predictor/self_aware",
+        "round1/predictor/vanilla",
+        "round1/pursuer/rl",
+        "round1/pursuer/sp_rl",
+    ]
+    pc = selfplay.round_predictor_cfg(cfg, 1, "self_aware")
+    assert stages[1].spec == to_json(pc) and (pc.steps, pc.seed) == (5000, cfg.seed + 1)
+    league = selfplay.pursuer_cfg(cfg, 1, "sp_rl").world
+    assert pc.world == league and len(league.target.league_evaders) == 2
+    assert selfplay.pursuer_cfg(cfg, 1, "sp_rl").predictor == pc.out / "predictor.safetensors"
+    vanilla = selfplay.round_predictor_cfg(cfg, 1, "vanilla").out / "predictor.safetensors"
+    assert selfplay.pursuer_cfg(cfg, 1, "p_rl").predictor == vanilla
+    assert selfplay.pursuer_cfg(cfg, 1, "rl").predictor is None
+    # Without it, the study's one --predictor, and no predictor stage.
+    fixed = tiny(tmp_path / "y", methods=("sp_rl",), predictor=Path("p.safetensors"))
+    assert selfplay.pursuer_cfg(fixed, 1, "sp_rl").predictor == Path("p.safetensors")
+    assert not any("/predictor/" in s.name for s in SelfPlayRunner(fixed).round_stages(0))
+
+
+def test_a_study_recorded_before_a_field_existed_reads_it_as_its_default(tmp_path):
+    cfg = tiny(tmp_path / "x")
+    selfplay.check_study(cfg)
+    path = cfg.out / "selfplay.json"
+    recorded = json.loads(path.read_text())
+    del recorded["predictor_steps"]
+    path.write_text(json.dumps(recorded))
+    selfplay.check_study(cfg)  # accepted: the missing field is at its default
+    with pytest.raises(ValueError, match=r"--predictor-steps \(None -> 10\)"):
+        selfplay.check_study(dataclasses.replace(cfg, predictor_steps=10))
 
 
 def test_every_evader_gets_the_studys_speed_action_field_of_view_and_selection(tmp_path):

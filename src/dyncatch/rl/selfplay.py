@@ -4,11 +4,13 @@ Round k (0-based):
 
 1. ``evader``: an evader trained (``rl.evader_train``) against the frozen pursuers of round
    k-1, every method and seed drawn with equal weight (round 0: ``first_pursuers``).
-2. ``pursuer/{method}``: each method's seeds trained (``rl.seeds``, one ``vmap``-ped group)
+2. ``predictor/{kind}`` (with ``predictor_steps``): the predictor of each kind the methods
+   read, trained on the round's league (below), which that round's pursuers read.
+3. ``pursuer/{method}``: each method's seeds trained (``rl.seeds``, one ``vmap``-ped group)
    in the ``league`` world: each episode a member of evaders 0..k plus the scripted
    ``league_behaviors`` (``sim.behaviors.league``), so a pursuer does not overfit the last
    evader.
-3. ``exploit/{method}/seed{s}``: a fresh best-response evader trained against that one
+4. ``exploit/{method}/seed{s}``: a fresh best-response evader trained against that one
    pursuer (skipped with ``exploit_steps`` 0), and ``eval/{method}/seed{s}``: the pursuer's
    success against the round's league and against its best response
    (``rl.exploitability``).
@@ -18,8 +20,9 @@ pursuers of one method (all seeds) against one opponent alone, round j's evader
 (``round{j}``) or a scripted league member (``rl.cross_eval``).
 
 Layout under ``out``: ``selfplay.json`` (the config; another is refused, naming the field),
-``round{k}/{evader,pursuer/{method},exploit/{method}/seed{s},eval/{method}/seed{s},
-cross/{method}/{opponent}}/`` (each finished by ``done.json``, ``rl.stages``) and
+``round{k}/{evader,predictor/{kind},pursuer/{method},exploit/{method}/seed{s},
+eval/{method}/seed{s},cross/{method}/{opponent}}/`` (each finished by ``done.json``,
+``rl.stages``) and
 ``summary.json`` / ``summary.md``. Adding rounds to a finished study (a larger
 ``--rounds``) reuses every finished stage.
 """
@@ -30,6 +33,8 @@ import dataclasses
 from pathlib import Path
 
 from dyncatch.evaluation.intervals import CONFIDENCE
+from dyncatch.predictor.checkpoint import PREDICTOR_FILE
+from dyncatch.predictor.pipeline import PredictorTrainCfg, train_predictor
 from dyncatch.rl.cross_eval import (
     Opponent,
     cross_rows,
@@ -74,8 +79,12 @@ def check_study(cfg: SelfPlayCfg) -> None:
     path = cfg.out / "selfplay.json"
     want = study_spec(cfg)
     if path.exists():
+        have = read_json(path, "delete it, or choose another --out")
+        # A field added since the study was made reads as its default there.
+        defaults = study_spec(SelfPlayCfg(out=cfg.out))
+        have.update({k: v for k, v in want.items() if k not in have and v == defaults.get(k)})
         msg = diff_message(
-            read_json(path, "delete it, or choose another --out"),
+            have,
             want,
             str(cfg.out),
             "re-run with the same flags to resume, or choose another --out",
@@ -95,16 +104,48 @@ def pursuer_runs(cfg: SelfPlayCfg, k: int, method: str) -> list[TrainRunCfg]:
     return seed_cfgs(pursuer_cfg(cfg, k, method))
 
 
+def league_evaders(cfg: SelfPlayCfg, k: int) -> tuple[str, ...]:
+    """The evader files of round ``k``'s league: rounds 0..k."""
+    return tuple(str(evader_path(cfg.out, j) / EVADER_CHECKPOINT) for j in range(k + 1))
+
+
+def predictor_kinds(cfg: SelfPlayCfg) -> list[str]:
+    """The predictor kinds the study's methods read, in the order of --methods."""
+    kinds = [get_method(m).predictor_kind for m in cfg.methods]
+    return list(dict.fromkeys(k for k in kinds if k is not None))
+
+
+def round_predictor_cfg(cfg: SelfPlayCfg, k: int, kind: str) -> PredictorTrainCfg:
+    """Round ``k``'s predictor of ``kind`` (with --predictor-steps): trained on the round's
+    league, the pursuers' own world."""
+    return PredictorTrainCfg(
+        kind=kind,
+        steps=cfg.predictor_steps,
+        seed=cfg.seed + k,
+        out=cfg.out / f"round{k}" / "predictor" / kind,
+        world=league_world(cfg, league_evaders(cfg, k)),
+    )
+
+
+def pursuer_predictor(cfg: SelfPlayCfg, k: int, method: str) -> Path | None:
+    """The predictor file round ``k``'s ``method`` reads (None: it reads none)."""
+    kind = get_method(method).predictor_kind
+    if kind is None:
+        return None
+    if cfg.predictor_steps:
+        return round_predictor_cfg(cfg, k, kind).out / PREDICTOR_FILE
+    return cfg.predictor
+
+
 def pursuer_cfg(cfg: SelfPlayCfg, k: int, method: str) -> TrainRunCfg:
-    evaders = tuple(str(evader_path(cfg.out, j) / EVADER_CHECKPOINT) for j in range(k + 1))
-    m = get_method(method)
+    evaders = league_evaders(cfg, k)
     return TrainRunCfg(
         method=method,
         total_steps=cfg.pursuer_steps,
         seed=cfg.seed,
         seeds=cfg.seeds,
         out=cfg.out / f"round{k}" / "pursuer" / method,
-        predictor=cfg.predictor if m.predictor_kind is not None else None,
+        predictor=pursuer_predictor(cfg, k, method),
         eval_every=cfg.pursuer_eval_every,
         logger=PURSUER_LOGGERS,
         ppo=cfg.pursuer_ppo,
@@ -156,6 +197,17 @@ class SelfPlayRunner:
         cfg = self.cfg
         ev = evader_cfg(cfg, k)
         stages = [_evader_stage(f"round{k}/evader", ev)]
+        if cfg.predictor_steps:
+            for kind in predictor_kinds(cfg):
+                pc = round_predictor_cfg(cfg, k, kind)
+                stages.append(
+                    Stage(
+                        f"round{k}/predictor/{kind}",
+                        pc.out,
+                        to_json(pc),
+                        lambda p, pc=pc: train_predictor(pc, p),
+                    )
+                )
         for method in cfg.methods:
             pc = pursuer_cfg(cfg, k, method)
             stages.append(Stage(f"round{k}/pursuer/{method}", pc.out, to_json(pc), _trainer(pc)))

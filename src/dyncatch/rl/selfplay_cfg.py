@@ -41,7 +41,15 @@ class SelfPlayCfg:
     """Round 0's frozen opponents: baselines (pursuit, intercept) or `dyncatch train` run
     folders trained in --world."""
     predictor: Path | None = None
-    """The predictor checkpoint of p_rl / sp_rl (dyncatch predictor train), used every round."""
+    """The predictor checkpoint of p_rl / sp_rl (dyncatch predictor train), used every round
+    (or --predictor-steps: one trained each round)."""
+    predictor_steps: int = 0
+    """0 (default): p_rl and sp_rl read --predictor in every round. N > 0: each round first
+    trains the predictor of each kind its methods read (vanilla for p_rl, self_aware for
+    sp_rl; dyncatch predictor train, N interaction steps, seed --seed + k) on the round's
+    league (evaders 0..k and --league-behaviors), and that round's pursuers read it. A
+    reading for issue 34: a predictor models only the targets it was trained on
+    (docs/evaders.md, "A predictor of one evader scored on another")."""
     evader_steps: int = 2_000_000
     """Environment steps of each round's evader."""
     pursuer_steps: int = 5_000_000
@@ -114,11 +122,19 @@ def validate_selfplay(cfg: SelfPlayCfg) -> None:
                 f"--methods {name!r} is not trained (it reuses {m.trained_as!r}); "
                 f"list {m.trained_as!r} instead"
             )
-        if m.predictor_kind is not None and cfg.predictor is None:
+        if m.predictor_kind is not None and cfg.predictor is None and not cfg.predictor_steps:
             raise ValueError(
                 f"--methods {name!r} needs --predictor PATH (a {m.predictor_kind!r} "
-                "checkpoint from dyncatch predictor train)"
+                "checkpoint from dyncatch predictor train) or --predictor-steps N (one "
+                "trained on each round's league)"
             )
+    if cfg.predictor_steps < 0:
+        raise ValueError(f"--predictor-steps {cfg.predictor_steps}: use 0 (--predictor) or more")
+    if cfg.predictor_steps and cfg.predictor is not None:
+        raise ValueError(
+            "--predictor and --predictor-steps both given: the rounds read one or train their "
+            "own; give one of them"
+        )
     for flag, steps in (
         ("--evader-steps", cfg.evader_steps),
         ("--pursuer-steps", cfg.pursuer_steps),
