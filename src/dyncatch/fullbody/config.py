@@ -216,10 +216,13 @@ class GaitCfg:
     it up."""
     friction_coef: float = 0.6
     """Friction cone used to clip stance forces (below the MJCF's floor friction, 1.0)."""
-    swing_kp_nm_per_rad: float = 150.0
+    swing_kp_nm_per_rad: float = 300.0
     """Leg joint PD stiffness of a swinging leg. Ours: gym-quadruped's identified Aliengo
     actuator model uses 25 under an RL policy; at 80 our swing feet lagged their path by
-    about 40 ms and landed late."""
+    about 40 ms and landed late. Measured (docs/fullbody.md, "The trot's envelope"): at the
+    command box's corner (2, 1) m/s the trot settles at 1.93 m/s of ground speed under 150,
+    2.14 under 300, 2.17 under 450; sideways (1 m/s) 0.83, 0.93, 0.96
+    (``benchmarks/swing_stiffness.py``). 300 takes most of the gain."""
     swing_kd_nms_per_rad: float = 3.0
     """Leg joint PD damping of a swinging leg."""
     stance_kd_nms_per_rad: float = 1.0

@@ -138,9 +138,11 @@ READINGS: dict[str, Reading] = {
             "base.max_speed_mps = 1.93: the commanded ground speed, the norm of (vx, vy), held "
             "to the full-body trot's top speed on the diagonal",
             "the paper's robot is an Aliengo under a 200 Hz gait (Sec. IV) and gives no speed "
-            "envelope; our full-body Aliengo + Z1 trot settles at 1.93 m/s under the default "
-            "box's corner command (2.0, 1.0) m/s, against 2.24 for the reduced base "
-            "(benchmarks/calibrate_base.py's diagonal responses, docs/fullbody.md)",
+            "envelope; our full-body Aliengo + Z1 trot settled at 1.93 m/s under the default "
+            "box's corner command (2.0, 1.0) m/s with its swing legs at 150 N m/rad (2.14 at "
+            "today's 300, benchmarks/swing_stiffness.py), against 2.24 for the reduced base "
+            '(docs/fullbody.md, "The trot\'s envelope"); the reading keeps 1.93 so that '
+            "its trained runs stay comparable",
             _world(base={"max_speed_mps": 1.93}),
         ),
         Reading(
