@@ -68,3 +68,11 @@ def test_a_part_recorded_before_a_field_existed_is_found_and_another_value_refus
     (tmp_path / "plan.json").write_text(json.dumps(recorded))
     with pytest.raises(ValueError, match="is no part of this plan.*world.base.max_speed_mps"):
         _which_part(tmp_path, parts)
+
+
+def test_a_part_without_table_i_draws_no_table_i_figure(tmp_path):
+    from dyncatch.reproduce.report import plot_table_i
+
+    circle = part_plan(PROFILES["full"], "circle")
+    plot_table_i([], circle.table_i_rows, tmp_path / "table_i.png")
+    assert circle.table_i_rows == () and not (tmp_path / "table_i.png").exists()

@@ -156,6 +156,10 @@ def plot_fig6(cells: list[dict], methods, behaviors, path: Path, speed: float) -
 
 
 def plot_table_i(cells: list[dict], behaviors, path: Path) -> None:
+    """Table I's success against target speed, one panel per behaviour of ``behaviors``; no
+    figure where there is none (a part of a reproduction whose behaviour Table I omits)."""
+    if not behaviors:
+        return
     import matplotlib
 
     matplotlib.use("Agg")

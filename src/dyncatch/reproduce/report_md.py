@@ -74,9 +74,9 @@ def render_report(r: dict, plan: Plan) -> str:
             report.table_i_markdown(cells, averages, behavior, plan.speeds_mps),
             "",
         ]
+    if plan.table_i_rows:
+        lines += ["![Table I](figures/table_i.png)", ""]
     lines += [
-        "![Table I](figures/table_i.png)",
-        "",
         "## Secondary checks: the paper's ordering at high speed",
         "",
         "Each claim is judged on success (first method's rate minus second's; 95 % CI "
