@@ -30,7 +30,9 @@ The analysis, written down before any ``rnn_rl`` run of this study:
   and the learning curves (each folder's report.md, Fig. 5).
 - **Stopping rule:** 10 seeds. If a primary's half-width exceeds 0.15 a second seed set
   (``--first-seed 10``, into another ``--out``) may be run; both are then reported apart
-  and pooled, whatever their direction.
+  and pooled, whatever their direction (``--pool-with`` the first set's summary folder:
+  the second set's summary adds the same analysis over both sets' seeds, each behaviour
+  with every seed either set measured).
 """
 
 from __future__ import annotations
@@ -177,6 +179,36 @@ def analyse(by_behavior: dict[str, dict]) -> dict:
     return {"primary": primary, "memory": memory, "secondary": secondary, "means_1_8": means}
 
 
+PER_SEED_KEYS = ("per_seed_success", "per_seed_catch_time_s")
+"""The per-seed lists of a Table I cell that the analysis reads."""
+
+
+def pool(first: dict, second: dict) -> dict:
+    """One behaviour's results over both seed sets: each Table I cell of ``first`` with the
+    per-seed lists of ``second``'s same (behaviour, method, speed) appended; a cell only one
+    set has is kept as it is. Refuses two sets that share a cell's seed count and values
+    exactly (the same set given twice)."""
+
+    def key(c: dict):
+        return c["behavior"], c["method"], round(c["speed_mps"], 9)
+
+    later = {key(c): c for c in second["table_i"]["cells"]}
+    cells = []
+    for c in first["table_i"]["cells"]:
+        other = later.pop(key(c), None)
+        if other is None:
+            cells.append(c)
+            continue
+        if other["per_seed_success"] == c["per_seed_success"]:
+            raise ValueError(
+                f"--pool-with: the cell {key(c)} is the same in both sets; "
+                "pass the first seed set's summary folder, not this one's"
+            )
+        cells.append({**c, **{k: list(c[k]) + list(other[k]) for k in PER_SEED_KEYS}})
+    cells += list(later.values())
+    return {"table_i": {"cells": cells}}
+
+
 def _mean(values) -> float | None:
     return None if not values else sum(values) / len(values)
 
@@ -186,19 +218,18 @@ def _ci(r: dict) -> str:
     return f"{r['difference']:+.3f} [{lo:+.3f}, {hi:+.3f}]"
 
 
-def summarize(args) -> dict:
+def _results_of(folder: Path) -> dict[str, dict]:
+    """Each behaviour's results.json under ``folder`` (``folder/<behaviour>/``)."""
     by_behavior = {}
     for b in BEHAVIORS:
-        path = args.out / b / "results.json"
+        path = folder / b / "results.json"
         if path.exists():
             by_behavior[b] = json.loads(path.read_text())
-    result = analyse(by_behavior)
+    return by_behavior
+
+
+def _primary_lines(result: dict) -> list[str]:
     lines = [
-        "Memory against prediction (benchmarks/memory_study.py; analysis in its docstring).",
-        "",
-        "Primary: success at 1.8 m/s, Welch 95 % over seeds, Holm over the four (one not yet",
-        "measured enters at p = 1).",
-        "",
         "| behaviour | pair | difference [95 % CI] | half-width | seeds | p (Holm) | verdict |",
         "|---|---|---|---:|---|---:|---|",
     ]
@@ -210,6 +241,46 @@ def summarize(args) -> dict:
         )
     lines += ["", "Memory (rnn_rl) against the self-aware predictor (sp_rl):", ""]
     lines += [f"- {b}: {v}" for b, v in result["memory"].items()]
+    return lines
+
+
+def pooled_analysis(first: dict[str, dict], second: dict[str, dict]) -> dict:
+    """``analyse`` over both seed sets: every behaviour either set measured, with the seeds
+    of both where both measured it."""
+    both = {}
+    for b in BEHAVIORS:
+        if b in first and b in second:
+            both[b] = pool(first[b], second[b])
+        elif b in first or b in second:
+            both[b] = first.get(b, second.get(b))
+    return analyse(both)
+
+
+def summarize(args) -> dict:
+    by_behavior = _results_of(args.out)
+    result = analyse(by_behavior)
+    lines = [
+        "Memory against prediction (benchmarks/memory_study.py; analysis in its docstring).",
+        "",
+        "Primary: success at 1.8 m/s, Welch 95 % over seeds, Holm over the four (one not yet",
+        "measured enters at p = 1).",
+        "",
+        *_primary_lines(result),
+    ]
+    if args.pool_with is not None:
+        first = _results_of(args.pool_with)
+        if not first:
+            raise SystemExit(f"--pool-with {args.pool_with}: no <behaviour>/results.json there; "
+                             "pass the first seed set's summary folder")  # fmt: skip
+        result["pooled"] = pooled_analysis(first, by_behavior)
+        result["pooled"]["with"] = str(args.pool_with)
+        lines += [
+            "",
+            f"Pooled with the seed set in {args.pool_with} (every seed of both sets; a",
+            "behaviour this set did not run enters with the other set's seeds):",
+            "",
+        ]
+        lines += _primary_lines(result["pooled"])
     lines += ["", "Mean success at 1.8 m/s over seeds:", ""]
     lines += ["| behaviour | " + " | ".join(METHODS) + " |", "|---|" + "---:|" * len(METHODS)]
     for b, means in result["means_1_8"].items():
@@ -235,6 +306,9 @@ def parser():
                     help="these halves only (run each after its full part)")  # fmt: skip
     ap.add_argument("--workers", type=int, default=2,
                     help="jobs at a time on a local Ray (1: this process)")  # fmt: skip
+    ap.add_argument("--pool-with", type=Path, default=None,
+                    help="the first seed set's summary folder (<behaviour>/results.json): "
+                         "report this set pooled with it too")  # fmt: skip
     return ap
 
 

@@ -126,3 +126,25 @@ def test_a_wide_interval_around_zero_is_unresolved_not_equivalent():
     assert p1["p_holm"] == pytest.approx(min(1.0, 4 * min(p1["p_value"], p2["p_value"])))
     assert p2["ci95"][0] < -memory.MARGIN and p2["verdict"] == "unresolved"
     assert r["memory"]["reactive"] == "unresolved"
+
+
+def test_a_second_seed_set_pools_with_the_first_seed_by_seed():
+    first = _rename(_results(lambda m: {"rl": 0.5, "sp_rl": 0.9, "rnn_rl": 0.7}[m]), "reactive")
+    second = _rename(_results(lambda m: {"rl": 0.4, "sp_rl": 0.8, "rnn_rl": 0.8}[m]), "reactive")
+    other = _rename(
+        _results(lambda m: {"rl": 0.3, "sp_rl": 0.9, "rnn_rl": 0.6}[m]), "random_reactive"
+    )
+    pooled = memory.pool(first, second)
+    cell = next(c for c in pooled["table_i"]["cells"]
+                if (c["method"], c["speed_mps"]) == ("rnn_rl", 1.8))  # fmt: skip
+    assert cell["per_seed_success"] == pytest.approx([0.68, 0.69, 0.7, 0.71, 0.72,
+                                                      0.78, 0.79, 0.8, 0.81, 0.82])  # fmt: skip
+    assert len(cell["per_seed_catch_time_s"]) == 10
+    # random_reactive only in the first set: it enters with its own seeds, the family stays four.
+    r = memory.pooled_analysis({"reactive": first, "random_reactive": other}, {"reactive": second})
+    seeds = {(p["behavior"], tuple(p["pair"])): p["seeds"] for p in r["primary"]}
+    assert seeds[("reactive", ("rnn_rl", "rl"))] == [10, 10]
+    assert seeds[("random_reactive", ("sp_rl", "rnn_rl"))] == [5, 5]
+    assert r["means_1_8"]["reactive"]["rnn_rl"] == pytest.approx(0.75)
+    with pytest.raises(ValueError, match="same in both sets"):
+        memory.pool(first, first)
