@@ -17,7 +17,7 @@ FIELDS = [
 
 
 def _fmt(v):
-    if isinstance(v, bool | str):
+    if v is None or isinstance(v, bool | str):
         return str(v)
     if isinstance(v, tuple):
         return "(" + ", ".join(f"{x:g}" for x in v) + ")"

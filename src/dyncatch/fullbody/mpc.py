@@ -274,7 +274,9 @@ def mpc_stance_forces(
 def _solve(hess, grad, ineq, lb, ub, mp) -> np.ndarray | None:
     """The QP ``hess``, ``grad``, ``ineq u <= 0``, ``lb <= u <= ub`` by ``MpcCfg.solver``."""
     if mp.solver == "proxqp":
-        return solve_dense(hess, grad, ineq, np.zeros(len(ineq)), lb, ub, mp.solver_tolerance)
+        return solve_dense(
+            hess, grad, ineq, np.zeros(len(ineq)), lb, ub, mp.solver_tolerance, mp.retry_primal_inf
+        )
     # Another solver of qpsolvers (an optional dependency); imported here, after
     # fullbody.qp has loaded ProxSuite's reproducible build, which qpsolvers then shares.
     proxsuite_module()

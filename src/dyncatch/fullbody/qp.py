@@ -69,15 +69,30 @@ def solve_dense(
     lb: np.ndarray,
     ub: np.ndarray,
     eps_abs: float,
+    retry_primal_inf: float | None = None,
 ) -> np.ndarray | None:
     """``argmin 1/2 x' hess x + grad' x`` s.t. ``ineq x <= ineq_ub``, ``lb <= x <= ub`` by
-    ProxSuite's dense ProxQP; None if it does not converge. ``hess`` (n, n), ``ineq`` (m, n)."""
+    ProxSuite's dense ProxQP; None if it does not converge. ``hess`` (n, n), ``ineq`` (m, n).
+
+    A solve that ProxQP reports primal infeasible is solved again with its infeasibility
+    tolerance ``eps_primal_inf`` at ``retry_primal_inf`` (None: no second solve), for
+    problems the caller knows to be feasible; a solve that converges the first time is
+    returned as it is."""
     n = grad.shape[0]
     c = np.vstack([ineq, np.eye(n)])
     lower = np.concatenate([np.full(ineq.shape[0], -np.inf), lb])
     upper = np.concatenate([ineq_ub, ub])
     qp = proxsuite_module().proxqp
     result = qp.dense.solve(hess, grad, None, None, c, lower, upper, eps_abs=eps_abs)
-    if result.info.status != qp.QPSolverOutput.PROXQP_SOLVED:
+    status = result.info.status
+    if status == qp.QPSolverOutput.PROXQP_PRIMAL_INFEASIBLE and retry_primal_inf is not None:
+        # The functional API has no infeasibility tolerance; the QP object has.
+        again = qp.dense.QP(n, 0, c.shape[0])
+        again.settings.eps_abs = eps_abs
+        again.settings.eps_primal_inf = retry_primal_inf
+        again.init(hess, grad, None, None, c, lower, upper)
+        again.solve()
+        result, status = again.results, again.results.info.status
+    if status != qp.QPSolverOutput.PROXQP_SOLVED:
         return None
     return result.x
