@@ -186,7 +186,8 @@ PER_SEED_KEYS = ("per_seed_success", "per_seed_catch_time_s")
 def pool(first: dict, second: dict) -> dict:
     """One behaviour's results over both seed sets: each Table I cell of ``first`` with the
     per-seed lists of ``second``'s same (behaviour, method, speed) appended; a cell only one
-    set has is kept as it is. Refuses two sets that share a cell's seed count and values
+    set has, and a baseline's (no seeds: the same episodes give the same cell), is kept as
+    it is. Refuses two sets that share a cell's seed count and values
     exactly (the same set given twice)."""
 
     def key(c: dict):
@@ -196,7 +197,7 @@ def pool(first: dict, second: dict) -> dict:
     cells = []
     for c in first["table_i"]["cells"]:
         other = later.pop(key(c), None)
-        if other is None:
+        if other is None or c["method"] not in METHODS:  # a baseline has no seeds to pool
             cells.append(c)
             continue
         if other["per_seed_success"] == c["per_seed_success"]:

@@ -146,5 +146,13 @@ def test_a_second_seed_set_pools_with_the_first_seed_by_seed():
     assert seeds[("reactive", ("rnn_rl", "rl"))] == [10, 10]
     assert seeds[("random_reactive", ("sp_rl", "rnn_rl"))] == [5, 5]
     assert r["means_1_8"]["reactive"]["rnn_rl"] == pytest.approx(0.75)
+    # A baseline has no seeds: both sets' cells are the same episodes, kept once.
+    base = {"behavior": "reactive", "method": "pursuit", "speed_mps": 1.8,
+            "per_seed_success": [0.3], "per_seed_catch_time_s": [15.0]}  # fmt: skip
+    with_base = memory.pool(
+        {"table_i": {"cells": [*first["table_i"]["cells"], base]}},
+        {"table_i": {"cells": [*second["table_i"]["cells"], base]}},
+    )
+    assert with_base["table_i"]["cells"][-1] == base
     with pytest.raises(ValueError, match="same in both sets"):
         memory.pool(first, first)
