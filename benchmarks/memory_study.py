@@ -187,8 +187,8 @@ def pool(first: dict, second: dict) -> dict:
     """One behaviour's results over both seed sets: each Table I cell of ``first`` with the
     per-seed lists of ``second``'s same (behaviour, method, speed) appended; a cell only one
     set has, and a baseline's (no seeds: the same episodes give the same cell), is kept as
-    it is. Refuses two sets that share a cell's seed count and values
-    exactly (the same set given twice)."""
+    it is. Refuses a learned method's cell whose per-seed successes are the same in both
+    (the same set given twice)."""
 
     def key(c: dict):
         return c["behavior"], c["method"], round(c["speed_mps"], 9)
