@@ -144,8 +144,9 @@ class MpcCfg:
     1e-4, 2.6 % of the control periods of ``sp_rl`` at 1.6 m/s fall back, 9.8 % of the last
     0.5 s before a start-up fall; the 121 plans flagged in 8 such 2 s episodes (a one-off
     harvest, its script not kept; one plan is tests/fullbody/data/flagged_plan.npz) all
-    solve at 1e-6 to 1e-14 (median 26 iterations, violation under 1e-8); but at 1e-8, with no fallback
-    left, 10 of the same 100 start-ups fell against 6, so the default keeps the fallback."""
+    solve at 1e-6 to 1e-14 (median 26 iterations, violation under 1e-8); but at 1e-8, with
+    no fallback left, 10 of the same 100 start-ups fell against 6, so the default keeps the
+    fallback."""
     solver: str = "proxqp"
     """QP solver of ``qpsolvers`` (``proxqp``: ProxSuite's dense solver; ``osqp``, if
     installed, gives the same forces)."""
