@@ -54,6 +54,12 @@ unchanged; the added settings join its Holm family):
   every seed while sp_rl kept catching, so its rnn_rl and gt_rl answer the secondary
   questions first.
 
+Added before the full pass of ``success_every_step`` ran (the analysis above unchanged):
+``--full-settings`` runs the full pass of the named settings alone, for a machine where the
+primary folders are gone (``full_pass_order`` cannot then be decided). Its rl and sp_rl
+seeds 0-4 on reactive retrain the primary pass's, so they also check that the code still
+gives its recorded per-seed values (summary.md).
+
 The study's ``default`` is the standard setting it began under, whose observation feeds the
 held sighting's age and the visible flag; issue 32 then made the paper's observation (the
 reading ``paper_observation`` here) the library's default. So every command of a setting
@@ -316,11 +322,29 @@ def parser():
                     help="the PPO network (default: the standard setting's)")  # fmt: skip
     ap.add_argument("--primary-seeds", type=int, nargs="*", default=[5, 10],
                     help="the primary passes' seed counts (none: skip them)")  # fmt: skip
+    ap.add_argument("--full-settings", nargs="+", default=None, metavar="SETTING",
+                    help="the full pass runs only these settings, in the order given "
+                         "(names as in summary.md, e.g. success_every_step; default: "
+                         "every setting, in full_pass_order)")  # fmt: skip
     return ap
+
+
+def chosen_settings(names: list[str]) -> list[tuple[str, ...]]:
+    """The settings ``--full-settings`` names, in its order; an unknown name is an error
+    that lists the known ones."""
+    unknown = [n for n in names if n not in SETTINGS_BY_NAME]
+    if unknown:
+        raise SystemExit(
+            f"--full-settings: unknown setting(s) {', '.join(unknown)}; "
+            f"choose from {', '.join(SETTINGS_BY_NAME)}"
+        )
+    return [SETTINGS_BY_NAME[n] for n in names]
 
 
 def run(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
+    if args.full_settings:
+        chosen_settings(args.full_settings)  # a wrong name fails before anything runs
     return run_study(args, passes(args), summarize, before=share_runs)
 
 
@@ -344,7 +368,11 @@ def full_pass_order(args) -> list[tuple[str, ...]]:
     """The full pass's settings, decided when it begins: ``default`` first, then those
     whose primary effect on rl is resolved and lowers it (where the secondary questions, does
     sp_rl hold and does memory do what the predictor does, have an answer to give), then the
-    rest in ``SETTINGS`` order; without the settings under which no primary run catches."""
+    rest in ``SETTINGS`` order; without the settings under which no primary run catches.
+    ``--full-settings`` replaces this order with its own list (a study whose primary folders
+    are gone cannot decide it)."""
+    if getattr(args, "full_settings", None):
+        return chosen_settings(args.full_settings)
     by_setting, by_seeds, _, _ = collect(args)
     lowers = set(analyse(by_setting, by_seeds)["gives_rl_its_catch"])
     keep = [s for s in SETTINGS if not catches_nothing(args, s)]

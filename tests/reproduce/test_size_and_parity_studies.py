@@ -343,3 +343,13 @@ def test_the_second_set_runs_rl_rounds_then_sp_rl_and_judges_its_own_seeds(tmp_p
         "| paper_observation | rl | 5 (10) | -0.500"
         in (args.summary_dir / "summary.md").read_text()
     )
+
+
+def test_the_full_pass_can_be_narrowed_to_named_settings_and_a_wrong_name_is_refused(tmp_path):
+    argv = ["--out", str(tmp_path), "--primary-seeds", "--full-settings", "success_every_step"]
+    args = parity_study.parser().parse_args(argv)
+    full = [a[a.index("--out") + 1].split("/")[-1] for a in parity_study.passes(args)]
+    assert full == ["success_every_step"]
+    with pytest.raises(SystemExit, match="--full-settings: unknown setting.*success_every_step"):
+        parity_study.run(["--out", str(tmp_path), "--full-settings", "every_step", "--dry-run"])
+    assert not any(tmp_path.iterdir())  # refused before anything ran
