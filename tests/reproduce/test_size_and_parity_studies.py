@@ -353,3 +353,23 @@ def test_the_full_pass_can_be_narrowed_to_named_settings_and_a_wrong_name_is_ref
     with pytest.raises(SystemExit, match="--full-settings: unknown setting.*success_every_step"):
         parity_study.run(["--out", str(tmp_path), "--full-settings", "every_step", "--dry-run"])
     assert not any(tmp_path.iterdir())  # refused before anything ran
+
+
+@pytest.mark.parametrize("behavior", ["reactive", "random_reactive"])
+def test_the_full_reproduction_trains_what_the_paper_observation_full_pass_would(behavior):
+    """The full reproduction at 10 seeds (benchmarks/results/full10/, the memory study's rl
+    and sp_rl) runs under the world and PPO of the parity study's ``paper_observation``
+    setting: its runs stand for that setting's full pass (docs/fidelity.md)."""
+    import json
+
+    from dyncatch.reproduce.layout import plans_differ
+
+    recorded = Path(__file__).resolve().parents[2] / "benchmarks/results/full10" / behavior
+    full10 = json.loads((recorded / "plan.json").read_text())
+    args = parity_study.parser().parse_args(["--out", "x", "--hidden-sizes", "128", "128", "64"])
+    plan = parse(parity_study.study_argv(args, ("paper_observation",)))[1].to_json()
+    differ = plans_differ(plan, full10)
+    assert [k for k in differ if k.split(".")[0] in ("world", "ppo")] == []
+    assert set(differ) <= {"behaviors", "fig9", "methods", "seeds", "setting", "speeds_mps",
+                           "table_i_behaviors", "transfer_behaviors", "videos"}  # fmt: skip
+    assert full10["episodes"] == plan["episodes"] and full10["train_steps"] == plan["train_steps"]
