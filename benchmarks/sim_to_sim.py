@@ -37,6 +37,21 @@ class SimToSimCmd:
     episodes: int = 200
     seed: int = 0
     baselines: tuple[str, ...] = ("pursuit",)
+    fullbody: tuple[str, ...] = ()
+    """``dyncatch eval``'s ``--fullbody.*`` flags for the full-body cells, as FIELD=VALUE
+    (``--fullbody gait.mpc.leg-torque-share=0.9`` for ``--fullbody.gait.mpc.leg-torque-share
+    0.9``)."""
+
+
+def fullbody_argv(settings: tuple[str, ...]) -> list[str]:
+    """``--fullbody.FIELD VALUE`` for each FIELD=VALUE of ``settings``."""
+    argv = []
+    for item in settings:
+        field, sep, value = item.partition("=")
+        if not sep or not field or field.startswith("-"):
+            raise SystemExit(f"--fullbody {item!r}: write FIELD=VALUE, e.g. gait.period-s=0.3")
+        argv += [f"--fullbody.{field}", *value.split()]
+    return argv
 
 
 def _cell(cmd: SimToSimCmd, method: str, backend: str, speeds, extra: list[str]) -> Path:
@@ -62,6 +77,7 @@ def _cell(cmd: SimToSimCmd, method: str, backend: str, speeds, extra: list[str])
         "--backend",
         backend,
         "--json",
+        *(fullbody_argv(cmd.fullbody) if backend == "mujoco" else ()),
     ]
     t0 = time.perf_counter()
     done = subprocess.run(argv, check=True, capture_output=True, text=True)

@@ -170,3 +170,57 @@ def test_a_plan_flagged_infeasible_is_solved_again_within_the_pyramids():
     # agree with the retry.
     if first is not None:
         np.testing.assert_allclose(first, again, atol=1e-6)
+
+
+def _torque_ratio(obs: RobotObs, forces: np.ndarray) -> np.ndarray:
+    tau = np.concatenate([obs.foot_jac[leg].T @ forces[leg] for leg in range(4)])
+    return np.abs(tau) / obs.leg_torque_limit_nm
+
+
+def test_the_torque_bound_keeps_the_planned_forces_within_the_leg_motors(mpc_env):
+    """Trotting on FR-RL while asked to reverse at full speed and turn: the plan alone asks
+    the standing legs for more than their motors give; with ``leg_torque_share`` its first
+    step stays within that share of every joint's limit (the model's own ctrlrange)."""
+    from dyncatch.fullbody.mpc import torque_rows
+
+    mpc_env.reset()
+    obs = dataclasses.replace(
+        mpc_env.observe(),
+        base_vel_mps=np.array([-1.0, 0.5, 0.0]),
+        base_angvel_rps=np.array([0.0, 0.0, -1.5]),
+    )
+    np.testing.assert_allclose(obs.leg_torque_limit_nm, mpc_env.model.actuator_ctrlrange[
+        mpc_env.idx.leg_ctrl, 1])  # fmt: skip
+    stance, cmd = np.array([False, True, True, False]), np.array([2.0, -1.0, 2.0])
+    state = gait_state(0.1, True)
+
+    def with_mpc(**fields):
+        mpc_cfg = dataclasses.replace(MPC.gait.mpc, retry_primal_inf=1e-8, **fields)
+        return dataclasses.replace(MPC, gait=dataclasses.replace(MPC.gait, mpc=mpc_cfg))
+
+    free = mpc_stance_forces(obs, cmd, state, stance, with_mpc())
+    assert _torque_ratio(obs, free).max() > 1.2  # the bound has something to hold
+    bounded = mpc_stance_forces(obs, cmd, state, stance, with_mpc(leg_torque_share=0.9))
+    assert _torque_ratio(obs, bounded).max() <= 0.9 + 1e-6
+    assert np.all(bounded[~stance] == 0.0) and bounded[stance, 2].sum() > 0.5 * MASS_KG * 9.81
+    # The rows bound each standing foot while it stays put: 6 a foot and step; none for a
+    # foot that lands within the horizon or one swinging now.
+    sched, feet = contact_plan(obs, cmd, state, stance, MPC)
+    legs_k = [np.flatnonzero(s) for s in sched]
+    offsets = np.concatenate([[0], np.cumsum([3 * len(legs) for legs in legs_k])])
+    rows, limits = torque_rows(obs, sched, feet, legs_k, offsets, 0.9)
+    stays = sum(
+        int(sched[k, leg] and np.allclose(feet[k, leg], obs.feet_m[leg]))
+        for k in range(len(sched))
+        for leg in np.flatnonzero(stance)
+    )
+    assert rows.shape == (6 * stays, offsets[-1]) and stays >= 2
+    assert np.all(limits <= 0.9 * 44.4 + 1e-9)
+
+
+def test_a_torque_share_outside_zero_to_one_is_refused():
+    from dyncatch.fullbody.config import validate_fullbody
+
+    bad = dataclasses.replace(MPC.gait.mpc, leg_torque_share=1.5)
+    with pytest.raises(ValueError, match="gait.mpc.leg_torque_share=1.5"):
+        validate_fullbody(dataclasses.replace(MPC, gait=dataclasses.replace(MPC.gait, mpc=bad)))

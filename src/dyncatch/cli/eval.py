@@ -13,8 +13,9 @@ from typing import Literal
 
 import tyro
 
-from dyncatch.evaluation.backends import EvalBackendName
+from dyncatch.evaluation.backends import EvalBackendName, get_backend
 from dyncatch.evaluation.grid import evaluate_speeds
+from dyncatch.fullbody.config import FullBodyCfg, validate_fullbody
 from dyncatch.policies.blend import Blended, PlaneScan, deploy
 from dyncatch.reproduce.paper import PAPER_SPEEDS_MPS
 from dyncatch.rl.methods import MethodName
@@ -46,6 +47,9 @@ class EvalCmd:
     """Where the episodes are played (dyncatch.evaluation.backends): jax, the reduced-order
     world; mujoco, the full-body Aliengo + Z1 (pip install -e '.[fullbody]'; open plane
     only; docs/fullbody.md). The same seed plays the same episodes on both."""
+    fullbody: FullBodyCfg = FullBodyCfg()
+    """The full body (``--backend mujoco`` only; docs/fullbody.md, "Constants"). Fields set
+    away from their defaults are recorded in the JSON's ``fullbody_changes``."""
     blend: bool = False
     """Deploy with eq. 10's collision avoidance (policies.blend, docs/scenes.md), as Fig. 9
     does in rooms and woods."""
@@ -79,6 +83,11 @@ def run_eval(cmd: EvalCmd) -> dict:
     if cmd.episodes < 1:
         raise ValueError(f"--episodes must be >= 1, got {cmd.episodes}")
     validate_speeds(cmd.speeds, "--speeds")
+    fullbody_changes = config_diff(FullBodyCfg(), cmd.fullbody)
+    fullbody = None
+    if fullbody_changes:
+        get_backend(cmd.backend, cmd.fullbody)  # refuses --fullbody.* off the full body
+        fullbody = validate_fullbody(cmd.fullbody)
     policy, method, trained_world = resolve_policy(
         cmd.method, cmd.world, cmd.as_method, cmd.predictor
     )
@@ -113,12 +122,15 @@ def run_eval(cmd: EvalCmd) -> dict:
         cmd.seed,
         method,
         cmd.backend,
+        fullbody,
     )
     result = {
         "rows": rows,
         "world_changes": {k: list(v) for k, v in changes.items()},
         "deployment": deployment,
     }
+    if fullbody_changes:
+        result["fullbody_changes"] = {k: list(v) for k, v in fullbody_changes.items()}
     if cmd.json:
         print(json.dumps(result))
         return result

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import os
 import time
 from collections.abc import Callable
@@ -57,8 +58,8 @@ FULLBODY_EVENTS = ("fell", "arm_over_limit")
 
 
 @contextlib.contextmanager
-def _open_fullbody(env: Environment):
-    with FullBodies(env) as bodies:
+def _open_fullbody(env: Environment, fullbody: FullBodyCfg | None = None):
+    with FullBodies(env, fullbody) as bodies:
         yield bodies.env
 
 
@@ -79,10 +80,21 @@ EvalBackendName = live_name(lambda: tuple(EVAL_BACKENDS), "BACKEND")
 """A key of ``EVAL_BACKENDS``, read when the command line is parsed."""
 
 
-def get_backend(name: str) -> EvalBackend:
+def get_backend(name: str, fullbody: FullBodyCfg | None = None) -> EvalBackend:
+    """The backend ``name``; ``fullbody`` (the ``mujoco`` backend's only) replaces the
+    library's ``FullBodyCfg``."""
     if name not in EVAL_BACKENDS:
         raise ValueError(f"unknown backend {name!r}: choose from {', '.join(EVAL_BACKENDS)}")
-    return EVAL_BACKENDS[name]
+    if fullbody is None:
+        return EVAL_BACKENDS[name]
+    if name != "mujoco":
+        raise ValueError(
+            f"--fullbody.* configures the full body, which backend {name!r} does not play; "
+            "use --backend mujoco or leave the --fullbody.* flags out"
+        )
+    return dataclasses.replace(
+        EVAL_BACKENDS[name], open=functools.partial(_open_fullbody, fullbody=fullbody)
+    )
 
 
 def run_fullbody_episodes(

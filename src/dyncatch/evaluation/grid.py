@@ -8,6 +8,7 @@ import numpy as np
 
 from dyncatch.evaluation.backends import get_backend
 from dyncatch.evaluation.stats import summarize
+from dyncatch.fullbody.config import FullBodyCfg
 from dyncatch.sim.api import Environment, as_env
 from dyncatch.sim.config import WorldCfg
 
@@ -25,12 +26,13 @@ def evaluate_speeds(
     seed: int,
     method: str,
     backend: str = "jax",
+    fullbody: FullBodyCfg | None = None,
 ) -> list[dict]:
     """One row per speed: success rate with a Wilson 95 % CI and mean catch time, played on
-    ``backend`` (a key of ``evaluation.backends.EVAL_BACKENDS``); the same seed plays the
-    same episodes on every backend."""
+    ``backend`` (a key of ``evaluation.backends.EVAL_BACKENDS``; ``fullbody`` configures the
+    ``mujoco`` one); the same seed plays the same episodes on every backend."""
     env = as_env(env)
-    entry = get_backend(backend)
+    entry = get_backend(backend, fullbody)
     key = jax.random.fold_in(jax.random.key(seed), EVAL_STREAM)
     keys = [jax.random.fold_in(key, i) for i in range(len(speeds_mps))]
     env = env.with_world(env.world.with_behavior(behavior))

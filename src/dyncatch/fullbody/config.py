@@ -147,6 +147,13 @@ class MpcCfg:
     solve at 1e-6 to 1e-14 (median 26 iterations, violation under 1e-8); but at 1e-8, with
     no fallback left, 10 of the same 100 start-ups fell against 6, so the default keeps the
     fallback."""
+    leg_torque_share: float | None = None
+    """Where set, the plan keeps each standing foot's joint torques (``J^T f``, its leg's
+    Jacobian now) within this share of the leg motors' limits, at every step of the horizon
+    while the foot stays where it stands now; None: the friction pyramids and normal-force
+    bounds alone. Ours, measured (docs/fullbody.md, "Sim-to-sim with a trained policy"): in
+    the start-up falls the plan asked up to ``max_normal_force_n`` of two stance feet whose
+    motors then saturated and delivered about 150 N each, and the trunk sank."""
     solver: str = "proxqp"
     """QP solver of ``qpsolvers`` (``proxqp``: ProxSuite's dense solver; ``osqp``, if
     installed, gives the same forces)."""
@@ -334,6 +341,12 @@ def validate_fullbody(cfg: FullBodyCfg) -> FullBodyCfg:
         raise ValueError(
             f"z1.speed_limiter_aim={z1.speed_limiter_aim} must lie in (0, 1] and "
             f"z1.speed_limiter_passes={z1.speed_limiter_passes} be at least 1"
+        )
+    share = cfg.gait.mpc.leg_torque_share
+    if share is not None and not 0.0 < share <= 1.0:
+        raise ValueError(
+            f"gait.mpc.leg_torque_share={share} must lie in (0, 1], or be None (no torque "
+            "bound in the plan)"
         )
     if cfg.stand_height_m <= 0.2:
         raise ValueError(

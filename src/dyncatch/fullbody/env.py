@@ -106,6 +106,7 @@ class FullBodyEnv:
             arm_mass_kg=self.arm_mass_kg,
             arm_com_m=d.subtree_com[link].copy(),
             arm_wrench=np.concatenate([d.cfrc_int[link, 3:], d.cfrc_int[link, :3]]),
+            leg_torque_limit_nm=self._leg_hi,
         )
 
     def gripper_m(self) -> np.ndarray:

@@ -61,6 +61,9 @@ class RobotObs:
     arm_wrench: np.ndarray
     """(6,) what the trunk puts on the arm through its first joint: force (N), then moment
     about ``com_m`` (N m); it holds the arm's weight and drives its motion."""
+    leg_torque_limit_nm: np.ndarray | None = None
+    """(12,) the leg motors' torque limits (the model's ``ctrlrange``, FL/FR/RL/RR x
+    hip/thigh/calf); None: not known to the controller."""
 
 
 @dataclasses.dataclass(frozen=True)

@@ -257,13 +257,17 @@ def mpc_stance_forces(
     ineq, lb, ub = _pyramids(
         nvar // 3, g.friction_coef, mp.min_normal_force_n, mp.max_normal_force_n
     )
+    ineq_ub = np.zeros(len(ineq))
+    if mp.leg_torque_share is not None and obs.leg_torque_limit_nm is not None:
+        rows, limits = torque_rows(obs, sched, feet, legs_k, offsets, mp.leg_torque_share)
+        ineq, ineq_ub = np.vstack([ineq, rows]), np.concatenate([ineq_ub, limits])
     # Solved in units of the robot's weight, the cost scaled to a unit largest curvature:
     # in newtons the curvature is ~1e-6 and the solver's tolerances would leave tens of
     # newtons unresolved.
     unit = m * GRAVITY_MPS2
     hess_u, grad_u = hess * unit**2, grad * unit
     scale = 1.0 / np.max(np.diag(hess_u))
-    u = _solve(hess_u * scale, grad_u * scale, ineq, lb / unit, ub / unit, mp)
+    u = _solve(hess_u * scale, grad_u * scale, ineq, ineq_ub / unit, lb / unit, ub / unit, mp)
     if u is None:
         return stance_forces(obs, cmd, state, stance, cfg)
     forces = np.zeros((4, 3))
@@ -271,11 +275,41 @@ def mpc_stance_forces(
     return forces
 
 
-def _solve(hess, grad, ineq, lb, ub, mp) -> np.ndarray | None:
-    """The QP ``hess``, ``grad``, ``ineq u <= 0``, ``lb <= u <= ub`` by ``MpcCfg.solver``."""
+def torque_rows(
+    obs: RobotObs,
+    sched: np.ndarray,
+    feet: np.ndarray,
+    legs_k: list[np.ndarray],
+    offsets: np.ndarray,
+    share: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Rows ``G u <= h`` (newtons, N m) holding each standing foot's joint torques
+    ``|J^T f|`` within ``share`` of its motors' limits, at every step while the foot stays
+    where it stands now (its Jacobian now; a foot that lands within the horizon is not
+    bounded: its leg's posture there is not known)."""
+    nvar = int(offsets[-1])
+    limits = np.asarray(obs.leg_torque_limit_nm, float).reshape(4, 3) * share
+    rows, bounds = [], []
+    for k, legs in enumerate(legs_k):
+        for j, leg in enumerate(legs):
+            if not sched[0, leg] or not np.allclose(feet[k, leg], obs.feet_m[leg]):
+                continue
+            block = np.zeros((3, nvar))
+            col = int(offsets[k]) + 3 * j
+            block[:, col : col + 3] = obs.foot_jac[leg].T
+            rows += [block, -block]
+            bounds += [limits[leg], limits[leg]]
+    if not rows:
+        return np.zeros((0, nvar)), np.zeros(0)
+    return np.vstack(rows), np.concatenate(bounds)
+
+
+def _solve(hess, grad, ineq, ineq_ub, lb, ub, mp) -> np.ndarray | None:
+    """The QP ``hess``, ``grad``, ``ineq u <= ineq_ub``, ``lb <= u <= ub`` by
+    ``MpcCfg.solver``."""
     if mp.solver == "proxqp":
         return solve_dense(
-            hess, grad, ineq, np.zeros(len(ineq)), lb, ub, mp.solver_tolerance, mp.retry_primal_inf
+            hess, grad, ineq, ineq_ub, lb, ub, mp.solver_tolerance, mp.retry_primal_inf
         )
     # Another solver of qpsolvers (an optional dependency); imported here, after
     # fullbody.qp has loaded ProxSuite's reproducible build, which qpsolvers then shares.
@@ -286,7 +320,7 @@ def _solve(hess, grad, ineq, lb, ub, mp) -> np.ndarray | None:
         hess,
         grad,
         ineq,
-        np.zeros(len(ineq)),
+        ineq_ub,
         lb=lb,
         ub=ub,
         solver=mp.solver,
