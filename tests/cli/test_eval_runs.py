@@ -116,16 +116,16 @@ def test_fullbody_flags_reach_the_full_body_and_are_recorded(runs, capsys):
     base = ["eval", str(gt), "--behavior", "circle", "--speeds", "0.8", "--episodes", "1"]
     base += ["--json", "--world.episode.duration-s", "0.2", "--backend", "mujoco"]
     capsys.readouterr()
-    assert main([*base, "--fullbody.gait.mpc.leg-torque-share", "0.9"]) == 0
+    assert main([*base, "--fullbody.gait.mpc.leg-torque-share", "0.8"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["fullbody_changes"] == {"gait.mpc.leg_torque_share": [None, 0.9]}
+    assert out["fullbody_changes"] == {"gait.mpc.leg_torque_share": [0.9, 0.8]}
     assert out["rows"][0]["backend"] == "mujoco"
     # A setting the full body itself refuses (check_world) shows that the flags reach it.
     assert main([*base, "--fullbody.control-hz", "100"]) == 2
     assert "200" in capsys.readouterr().err
     # Off the full body, or outside the field's range: refused, naming the flag.
     jax_argv = [a for a in base if a not in ("--backend", "mujoco")]
-    assert main([*jax_argv, "--fullbody.gait.mpc.leg-torque-share", "0.9"]) == 2
+    assert main([*jax_argv, "--fullbody.gait.mpc.leg-torque-share", "0.8"]) == 2
     assert "--backend mujoco" in capsys.readouterr().err
     assert main([*base, "--fullbody.gait.mpc.leg-torque-share", "2"]) == 2
     assert "gait.mpc.leg_torque_share=2" in capsys.readouterr().err

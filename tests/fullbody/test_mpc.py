@@ -180,7 +180,8 @@ def _torque_ratio(obs: RobotObs, forces: np.ndarray) -> np.ndarray:
 def test_the_torque_bound_keeps_the_planned_forces_within_the_leg_motors(mpc_env):
     """Trotting on FR-RL while asked to reverse at full speed and turn: the plan alone asks
     the standing legs for more than their motors give; with ``leg_torque_share`` its first
-    step stays within that share of every joint's limit (the model's own ctrlrange)."""
+    step stays within that share of every joint's limit (the model's own ctrlrange): the
+    default, 0.9."""
     from dyncatch.fullbody.mpc import torque_rows
 
     mpc_env.reset()
@@ -198,9 +199,10 @@ def test_the_torque_bound_keeps_the_planned_forces_within_the_leg_motors(mpc_env
         mpc_cfg = dataclasses.replace(MPC.gait.mpc, retry_primal_inf=1e-8, **fields)
         return dataclasses.replace(MPC, gait=dataclasses.replace(MPC.gait, mpc=mpc_cfg))
 
-    free = mpc_stance_forces(obs, cmd, state, stance, with_mpc())
+    free = mpc_stance_forces(obs, cmd, state, stance, with_mpc(leg_torque_share=None))
     assert _torque_ratio(obs, free).max() > 1.2  # the bound has something to hold
-    bounded = mpc_stance_forces(obs, cmd, state, stance, with_mpc(leg_torque_share=0.9))
+    assert MPC.gait.mpc.leg_torque_share == 0.9
+    bounded = mpc_stance_forces(obs, cmd, state, stance, with_mpc())
     assert _torque_ratio(obs, bounded).max() <= 0.9 + 1e-6
     assert np.all(bounded[~stance] == 0.0) and bounded[stance, 2].sum() > 0.5 * MASS_KG * 9.81
     # The rows bound each standing foot while it stays put: 6 a foot and step; none for a

@@ -135,25 +135,25 @@ class MpcCfg:
     solver_tolerance: float = 1e-8
     """Absolute tolerance of the QP solver (``eps_abs``), on the problem in units of the
     robot's weight with its cost scaled to a unit largest curvature."""
-    retry_primal_inf: float | None = None
+    retry_primal_inf: float | None = 1e-8
     """ProxQP's primal infeasibility tolerance (``eps_primal_inf``) for a second solve of a
     plan its first solve (ProxSuite's default, 1e-4) reports infeasible; None: no second
-    solve, the least-squares stance stands in for that control period (``proxqp`` only).
-    Every plan is feasible (no tangential force and a normal force within the bounds meets
-    every pyramid), so the flags are the solver's. Ours, measured (docs/fullbody.md): at
-    1e-4, 2.6 % of the control periods of ``sp_rl`` at 1.6 m/s fall back, 9.8 % of the last
-    0.5 s before a start-up fall; the 121 plans flagged in 8 such 2 s episodes (a one-off
-    harvest, its script not kept; one plan is tests/fullbody/data/flagged_plan.npz) all
-    solve at 1e-6 to 1e-14 (median 26 iterations, violation under 1e-8); but at 1e-8, with
-    no fallback left, 10 of the same 100 start-ups fell against 6, so the default keeps the
-    fallback."""
-    leg_torque_share: float | None = None
+    solve, the least-squares stance (which knows no torque bound) stands in for that control
+    period (``proxqp`` only). Every plan is feasible (no force at all meets every pyramid
+    and torque row), so the flags are the solver's. Ours, measured (docs/fullbody.md): at
+    1e-4, 2.6 % of the control periods of ``sp_rl`` at 1.6 m/s fall back; the 121 plans
+    flagged in 8 such 2 s episodes (a one-off harvest, its script not kept; one plan is
+    tests/fullbody/data/flagged_plan.npz) all solve at 1e-6 to 1e-14. Alone (no
+    ``leg_torque_share``) it did not help: 10 of 100 start-ups fell against 6; with the
+    torque bound, which ProxQP flags more often, it keeps the bound in every period."""
+    leg_torque_share: float | None = 0.9
     """Where set, the plan keeps each standing foot's joint torques (``J^T f``, its leg's
     Jacobian now) within this share of the leg motors' limits, at every step of the horizon
-    while the foot stays where it stands now; None: the friction pyramids and normal-force
-    bounds alone. Ours, measured (docs/fullbody.md, "Sim-to-sim with a trained policy"): in
-    the start-up falls the plan asked up to ``max_normal_force_n`` of two stance feet whose
-    motors then saturated and delivered about 150 N each, and the trunk sank."""
+    while the foot stays where it stands now (0.9: room for the stance legs' damping); None:
+    the friction pyramids and normal-force bounds alone. Ours, measured (docs/fullbody.md,
+    "Sim-to-sim with a trained policy"): without it the plan asked the stance feet for more
+    than their motors give and the trunk sank or tipped: 28 falls in 600 sim-to-sim
+    episodes of two ``sp_rl`` seeds, 0 with it."""
     solver: str = "proxqp"
     """QP solver of ``qpsolvers`` (``proxqp``: ProxSuite's dense solver; ``osqp``, if
     installed, gives the same forces)."""
