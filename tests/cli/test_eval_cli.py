@@ -43,7 +43,7 @@ def test_a_baseline_deployed_with_the_blend_in_a_room(capsys, monkeypatch):
 
     seen = []
 
-    def fake(policy, world, behavior, speeds, episodes, seed, method, backend="jax"):
+    def fake(policy, world, behavior, speeds, episodes, seed, method, backend="jax", fullbody=None):
         seen.append((policy, world.scene.name))
         return [{"speed_mps": v, "episodes": episodes} for v in speeds]
 
