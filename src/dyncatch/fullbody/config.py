@@ -144,8 +144,9 @@ class MpcCfg:
     1e-4, 2.6 % of the control periods of ``sp_rl`` at 1.6 m/s fall back; the 121 plans
     flagged in 8 such 2 s episodes (a one-off harvest, its script not kept; one plan is
     tests/fullbody/data/flagged_plan.npz) all solve at 1e-6 to 1e-14. Alone (no
-    ``leg_torque_share``) it did not help: 10 of 100 start-ups fell against 6; with the
-    torque bound, which ProxQP flags more often, it keeps the bound in every period."""
+    ``leg_torque_share``) it did not help: 10 of 100 start-ups fell against 6; it is the
+    default for the torque bound's sake: plans with its rows are flagged too (how often, not
+    counted; tests/fullbody/test_mpc.py holds one), and the fallback would drop the bound."""
     leg_torque_share: float | None = 0.9
     """Where set, the plan keeps each standing foot's joint torques (``J^T f``, its leg's
     Jacobian now) within this share of the leg motors' limits, at every step of the horizon
