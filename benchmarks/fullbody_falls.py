@@ -202,6 +202,15 @@ def summarise(probe: Probe, fell: np.ndarray, success: np.ndarray) -> dict:
     return out
 
 
+def _at_peak(i: int, rows: dict[str, np.ndarray]) -> dict:
+    k = int(np.argmax(rows["qd_ratio"]))
+    return {
+        "episode": int(i),
+        **{f: round(float(rows[f][k]), 3) for f in Probe.FIELDS},
+        "sat_within_50ms": bool(rows["sat"][max(k - 10, 0) : k + 1].any()),
+    }
+
+
 def main(cmd: FallsCmd) -> dict:
     policy, method, trained = resolve_policy(cmd.policy, WorldCfg(), None, cmd.predictor)
     world = (WorldCfg() if trained is None else trained).with_behavior("reactive")
@@ -242,10 +251,17 @@ def main(cmd: FallsCmd) -> dict:
         "arm_torque_max_over_limit": round(float(out["arm_torque_ratio"].max()), 4),
         "episodes_over_limit": int(out["arm_over_limit"].sum()),
     }
+    # Where an episode left a physics step over an arm limit: its control period of the
+    # largest joint speed, and what the trunk and the arm did there.
+    result["over_limit_episodes"] = [
+        _at_peak(i, probe.arrays(i)) for i in np.flatnonzero(out["arm_over_limit"])
+    ]
     result["per_episode"] = {
         "success": ok.astype(int).tolist(),
         "fell": out["fell"].astype(int).tolist(),
         "catch_time_s": np.round(out["catch_time_s"], 2).tolist(),
+        "arm_speed_ratio": np.round(out["arm_speed_ratio"], 4).tolist(),
+        "arm_torque_ratio": np.round(out["arm_torque_ratio"], 4).tolist(),
     }
     result["wall_s"] = round(out["wall_s"], 1)
     result["cpu_s"] = round(out["cpu_s"], 1)

@@ -172,6 +172,41 @@ def test_a_plan_flagged_infeasible_is_solved_again_within_the_pyramids():
         np.testing.assert_allclose(first, again, atol=1e-6)
 
 
+def test_daqp_solves_the_flagged_plan_at_once_to_its_optimum():
+    """The same plan by DAQP (``MpcCfg.solver = "daqp"``), with no second solve: within
+    every bound, and optimal by the KKT conditions checked here (the cost's gradient is a
+    non-negative combination of the active constraints' normals), so no worse than the
+    ProxQP retry's answer."""
+    import scipy.optimize
+
+    from dyncatch.fullbody.qp import solve_daqp, solve_dense
+
+    plan = dict(np.load(Path(__file__).parent / "data" / "flagged_plan.npz"))
+    hess, grad, ineq, ineq_ub, lb, ub = (
+        plan[k] for k in ("hess", "grad", "ineq", "ineq_ub", "lb", "ub")
+    )
+    x = solve_daqp(hess, grad, ineq, ineq_ub, lb, ub, MPC.gait.mpc.solver_tolerance)
+    assert x is not None
+    assert np.max(ineq @ x - ineq_ub) < 1e-7
+    assert np.all(x >= lb - 1e-7) and np.all(x <= ub + 1e-7)
+    # All constraints as rows g x <= h: the rows, the upper bounds, the lower bounds.
+    n = len(grad)
+    g_all = np.vstack([ineq, np.eye(n), -np.eye(n)])
+    h_all = np.concatenate([ineq_ub, ub, -lb])
+    active = np.flatnonzero(g_all @ x - h_all > -1e-7)
+    assert 0 < len(active) < n  # something binds; not a vertex alone
+    # -(H x + g) = G_active^T lam with lam >= 0 (non-negative least squares: the active
+    # normals are dependent where a foot carries nothing, so lam is not unique).
+    lam, residual = scipy.optimize.nnls(g_all[active].T, -(hess @ x + grad))
+    assert residual < 1e-6 * np.linalg.norm(grad)
+    retry = solve_dense(hess, grad, ineq, ineq_ub, lb, ub, 1e-8, retry_primal_inf=1e-8)
+
+    def cost(u):
+        return 0.5 * u @ hess @ u + grad @ u
+
+    assert cost(x) <= cost(retry) + 1e-12
+
+
 def _torque_ratio(obs: RobotObs, forces: np.ndarray) -> np.ndarray:
     tau = np.concatenate([obs.foot_jac[leg].T @ forces[leg] for leg in range(4)])
     return np.abs(tau) / obs.leg_torque_limit_nm
@@ -224,3 +259,34 @@ def test_a_torque_share_outside_zero_to_one_is_refused():
     bad = dataclasses.replace(MPC.gait.mpc, leg_torque_share=1.5)
     with pytest.raises(ValueError, match="gait.mpc.leg_torque_share=1.5"):
         validate_fullbody(dataclasses.replace(MPC, gait=dataclasses.replace(MPC.gait, mpc=bad)))
+
+
+def test_a_solver_that_is_not_installed_is_refused_naming_the_field():
+    from dyncatch.fullbody.config import validate_fullbody
+
+    bad = dataclasses.replace(MPC.gait.mpc, solver="no-such-solver")
+    with pytest.raises(ValueError, match="gait.mpc.solver='no-such-solver'.*'daqp'"):
+        validate_fullbody(dataclasses.replace(MPC, gait=dataclasses.replace(MPC.gait, mpc=bad)))
+
+
+def test_daqp_and_proxqp_plan_the_same_forces_while_trotting(mpc_env):
+    """The two solvers' first-step forces over a trot with a turn agree within a newton
+    (the plan's optimum is unique: the force weight makes the cost strictly convex)."""
+    from dyncatch.fullbody.mpc import mpc_stance_forces
+
+    mpc_env.reset()
+    obs = dataclasses.replace(
+        mpc_env.observe(),
+        base_vel_mps=np.array([1.0, 0.2, 0.0]),
+        base_angvel_rps=np.array([0.0, 0.0, 0.5]),
+    )
+    stance, cmd = np.array([True, False, False, True]), np.array([1.5, 0.0, 1.0])
+
+    def forces(solver):
+        mpc_cfg = dataclasses.replace(MPC.gait.mpc, solver=solver)
+        cfg = dataclasses.replace(MPC, gait=dataclasses.replace(MPC.gait, mpc=mpc_cfg))
+        return mpc_stance_forces(obs, cmd, gait_state(0.3, True), stance, cfg)
+
+    daqp, proxqp = forces("daqp"), forces("proxqp")
+    assert daqp[stance, 2].sum() > 0.5 * MASS_KG * 9.81
+    np.testing.assert_allclose(daqp, proxqp, atol=1.0)

@@ -8,7 +8,7 @@ control period long) the timed gait's contact schedule is known, and so are the 
 on the ground where they stand, those that will land at Raibert's point
 (``gait.touchdown_point``). The arm's measured reaction (``gait.arm_reaction``) enters as a
 known disturbance wrench, held over the horizon. The condensed QP (forces of the stance feet
-only, friction pyramids, normal-force bounds) is solved by ``qpsolvers`` (``MpcCfg.solver``);
+only, friction pyramids, normal-force bounds) is solved by DAQP (``MpcCfg.solver``);
 the first step's forces go to the feet as ``-J^T f``, as the least-squares stance does. Roll
 and pitch are integrated into the aim (offset-free), and so is the velocity error, clipped.
 
@@ -35,7 +35,7 @@ from dyncatch.fullbody.gait import (
     touchdown_point,
     yaw_of,
 )
-from dyncatch.fullbody.qp import proxsuite_module, solve_dense
+from dyncatch.fullbody.qp import proxsuite_module, solve_daqp, solve_dense
 
 
 def _rot_z(yaw: float) -> np.ndarray:
@@ -289,24 +289,29 @@ def torque_rows(
     bounded: its leg's posture there is not known)."""
     nvar = int(offsets[-1])
     limits = np.asarray(obs.leg_torque_limit_nm, float).reshape(4, 3) * share
-    rows, bounds = [], []
-    for k, legs in enumerate(legs_k):
-        for j, leg in enumerate(legs):
-            if not sched[0, leg] or not np.allclose(feet[k, leg], obs.feet_m[leg]):
-                continue
-            block = np.zeros((3, nvar))
-            col = int(offsets[k]) + 3 * j
-            block[:, col : col + 3] = obs.foot_jac[leg].T
-            rows += [block, -block]
-            bounds += [limits[leg], limits[leg]]
-    if not rows:
+    # (N, 4): the foot stands now and, at step k, where it stands now.
+    stays = sched[0][None] & np.isclose(feet, obs.feet_m[None]).all(axis=-1)
+    picks = [
+        (int(offsets[k]) + 3 * j, leg)
+        for k, legs in enumerate(legs_k)
+        for j, leg in enumerate(legs)
+        if stays[k, leg]
+    ]
+    if not picks:
         return np.zeros((0, nvar)), np.zeros(0)
-    return np.vstack(rows), np.concatenate(bounds)
+    rows = np.zeros((len(picks), 2, 3, nvar))
+    for i, (col, leg) in enumerate(picks):
+        rows[i, 0, :, col : col + 3] = obs.foot_jac[leg].T
+    rows[:, 1] = -rows[:, 0]
+    bounds = np.repeat(limits[[leg for _, leg in picks]][:, None], 2, axis=1)
+    return rows.reshape(-1, nvar), bounds.reshape(-1)
 
 
 def _solve(hess, grad, ineq, ineq_ub, lb, ub, mp) -> np.ndarray | None:
     """The QP ``hess``, ``grad``, ``ineq u <= ineq_ub``, ``lb <= u <= ub`` by
     ``MpcCfg.solver``."""
+    if mp.solver == "daqp":
+        return solve_daqp(hess, grad, ineq, ineq_ub, lb, ub, mp.solver_tolerance)
     if mp.solver == "proxqp":
         return solve_dense(
             hess, grad, ineq, ineq_ub, lb, ub, mp.solver_tolerance, mp.retry_primal_inf

@@ -12,7 +12,8 @@ types): ``proxsuite_module`` loads the SSE2 build when it is the first to import
 (the first solve calls it, and ``mpc._solve`` before it imports ``qpsolvers``); if another
 build was loaded before it, it warns once and solves with that one. Importing this module
 imports no ProxSuite, an optional dependency (the fullbody extra), so that the core library
-(``dyncatch train``, evaluation) runs without it.
+(``dyncatch train``, evaluation) runs without it. ``solve_daqp`` solves the same QP by DAQP
+(the default ``MpcCfg.solver``), whose answers repeat to the bit without such care.
 """
 
 from __future__ import annotations
@@ -78,21 +79,56 @@ def solve_dense(
     tolerance ``eps_primal_inf`` at ``retry_primal_inf`` (None: no second solve), for
     problems the caller knows to be feasible; a solve that converges the first time is
     returned as it is."""
-    n = grad.shape[0]
-    c = np.vstack([ineq, np.eye(n)])
-    lower = np.concatenate([np.full(ineq.shape[0], -np.inf), lb])
-    upper = np.concatenate([ineq_ub, ub])
+    n, rows = grad.shape[0], ineq.shape[0]
+    lower = np.full(rows, -np.inf)
     qp = proxsuite_module().proxqp
-    result = qp.dense.solve(hess, grad, None, None, c, lower, upper, eps_abs=eps_abs)
+    # The bounds as ProxQP's box constraints, not as identity rows of ``ineq``: the same
+    # answers, 13 % less time a solve (benchmarks/mpc_qp_solvers.py).
+    result = qp.dense.solve(
+        hess, grad, None, None, ineq, lower, ineq_ub, l_box=lb, u_box=ub, eps_abs=eps_abs
+    )
     status = result.info.status
     if status == qp.QPSolverOutput.PROXQP_PRIMAL_INFEASIBLE and retry_primal_inf is not None:
         # The functional API has no infeasibility tolerance; the QP object has.
-        again = qp.dense.QP(n, 0, c.shape[0])
+        again = qp.dense.QP(n, 0, rows, box_constraints=True)
         again.settings.eps_abs = eps_abs
         again.settings.eps_primal_inf = retry_primal_inf
-        again.init(hess, grad, None, None, c, lower, upper)
+        again.init(hess, grad, None, None, ineq, lower, ineq_ub, lb, ub)
         again.solve()
         result, status = again.results, again.results.info.status
     if status != qp.QPSolverOutput.PROXQP_SOLVED:
         return None
     return result.x
+
+
+def solve_daqp(
+    hess: np.ndarray,
+    grad: np.ndarray,
+    ineq: np.ndarray,
+    ineq_ub: np.ndarray,
+    lb: np.ndarray,
+    ub: np.ndarray,
+    primal_tol: float,
+) -> np.ndarray | None:
+    """The same QP as ``solve_dense`` by DAQP (Arnstrom, Bemporad and Axehill, IEEE TAC
+    2022), a dual active-set method for the small dense QPs of MPC: it ends on the exact
+    optimum of an active set (within ``primal_tol`` of each constraint), where an
+    interior or proximal method stops within a tolerance of it. None if it does not
+    report an optimum. Imported on first use (the fullbody extra)."""
+    import daqp
+
+    # Bounds longer than the rows of ``ineq``: DAQP reads the first ones as simple bounds.
+    upper = np.concatenate([ub, ineq_ub])
+    lower = np.concatenate([lb, np.full(ineq.shape[0], -np.inf)])
+    # DAQP's Cython signature takes writable buffers only (the cached pyramids are not).
+    hess, grad, ineq = (np.require(a, np.float64, ["C", "W"]) for a in (hess, grad, ineq))
+    x, _, exitflag, _ = daqp.solve(
+        hess,
+        grad,
+        ineq,
+        upper,
+        lower,
+        np.zeros(len(upper), dtype=np.int32),
+        primal_tol=primal_tol,
+    )
+    return x if exitflag in (1, 2) else None
