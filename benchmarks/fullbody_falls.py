@@ -204,10 +204,25 @@ def summarise(probe: Probe, fell: np.ndarray, success: np.ndarray) -> dict:
 
 def _at_peak(i: int, rows: dict[str, np.ndarray]) -> dict:
     k = int(np.argmax(rows["qd_ratio"]))
+    t, active = rows["t_s"], rows["active"] > 0
+    dt = float(np.median(np.diff(t))) if len(t) > 1 else 1.0
     return {
         "episode": int(i),
         **{f: round(float(rows[f][k]), 3) for f in Probe.FIELDS},
         "sat_within_50ms": bool(rows["sat"][max(k - 10, 0) : k + 1].any()),
+        # What led to the peak: how long since the arm last reached (inf: never in this
+        # episode), the arm's speed 0.1 s before, and the trunk's largest yaw acceleration
+        # over the last 50 ms (its heading-frame yaw rate differenced over control periods).
+        "s_since_reaching": round(float(t[k] - t[:k][active[:k]].max()), 3)
+        if active[:k].any()
+        else np.inf,
+        "qd_ratio_100ms_before": round(float(rows["qd_ratio"][max(k - 20, 0)]), 3),
+        "yaw_accel_max_50ms_rps2": round(
+            float(
+                np.abs(np.diff(rows["yaw_rate_rps"][max(k - 10, 0) : k + 1]) / dt).max(initial=0.0)
+            ),
+            1,
+        ),
     }
 
 

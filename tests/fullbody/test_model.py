@@ -113,3 +113,7 @@ def test_bad_config_is_refused_with_the_field_to_change():
 
     with pytest.raises(ValueError, match="physics_dt_s"):
         validate_fullbody(dataclasses.replace(CFG, physics_dt_s=0.0015))
+    with pytest.raises(ValueError, match="z1.stow_speed_fraction=1.5"):
+        validate_fullbody(
+            dataclasses.replace(CFG, z1=dataclasses.replace(CFG.z1, stow_speed_fraction=1.5))
+        )

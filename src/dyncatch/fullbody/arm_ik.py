@@ -107,9 +107,15 @@ def goal_rate(jac: np.ndarray, goal_vel_mps: np.ndarray, damping: float) -> np.n
 
 
 def stow_target_step(
-    q_des: np.ndarray, qd_prev: np.ndarray, arm: ArmCfg, dt_s: float, max_accel_rps2: float
+    q_des: np.ndarray,
+    qd_prev: np.ndarray,
+    arm: ArmCfg,
+    dt_s: float,
+    max_accel_rps2: float,
+    max_vel_rps: float | None = None,
 ) -> np.ndarray:
-    """Next arm PD targets (6,) moving toward the stow pose at up to the joint-velocity
-    limit, braking in time (per joint) so as to stop there."""
+    """Next arm PD targets (6,) moving toward the stow pose at up to ``max_vel_rps`` (None:
+    the joint-velocity limit), braking in time (per joint) so as to stop there."""
+    vel = arm.max_joint_vel_rps if max_vel_rps is None else max_vel_rps
     dq = _brake(np.asarray(arm.stow_rad) - q_des, max_accel_rps2, dt_s)
-    return q_des + limit_step(dq, qd_prev, arm.max_joint_vel_rps, max_accel_rps2, dt_s)
+    return q_des + limit_step(dq, qd_prev, vel, max_accel_rps2, dt_s)

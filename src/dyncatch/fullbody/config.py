@@ -50,6 +50,12 @@ class Z1Cfg:
     lagging joint catches up at the limit. Ours: the margin leaves room for the trunk's own
     motion, which the joints feel; None is the plain PD (which overran the limit by up to
     1.58 x under the trained policy)."""
+    stow_speed_fraction: float | None = None
+    """While the arm stows, its targets move and its PD drives at most this fraction of the
+    Z1's speed limit (None: as while reaching, the targets at the limit and the PD at
+    ``pd_speed_fraction``). Ours: a stow has no deadline, and a joint already near the limit
+    has no torque left to brake what the trunk's turning adds (docs/fullbody.md, "The arm's
+    limits")."""
     speed_limiter: bool = True
     """Hold every arm joint to the Z1's speed limit (``ArmCfg.max_joint_vel_rps``, the URDF's
     3.1415 rad/s) after every physics step, as its driver's speed limiter does
@@ -355,6 +361,11 @@ def validate_fullbody(cfg: FullBodyCfg) -> FullBodyCfg:
         raise ValueError(
             "z1.link_mass_kg, z1.max_torque_nm, z1.kp_nm_per_rad and z1.kd_nms_per_rad need "
             "one value per joint (6)"
+        )
+    if z1.stow_speed_fraction is not None and not 0.0 < z1.stow_speed_fraction <= 1.0:
+        raise ValueError(
+            f"z1.stow_speed_fraction={z1.stow_speed_fraction} must lie in (0, 1] "
+            "(or None: stow as fast as the arm reaches)"
         )
     if not 0.0 < z1.speed_limiter_aim <= 1.0 or z1.speed_limiter_passes < 1:
         raise ValueError(

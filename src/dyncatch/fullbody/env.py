@@ -57,6 +57,9 @@ class FullBodyEnv:
         self._stance_fn = STANCE_CONTROLLERS[self.cfg.gait.controller]
         frac = z1.pd_speed_fraction
         self._arm_pd_speed_rps = None if frac is None else frac * self.cfg.arm.max_joint_vel_rps
+        stow = z1.stow_speed_fraction
+        self._stow_speed_rps = None if stow is None else stow * self.cfg.arm.max_joint_vel_rps
+        self._stowing = True
         self.arm_driver = ArmSpeedLimiter(self.model, self.idx, self.cfg)
         """Steps the physics with the Z1's speed limit; keeps the arm's peak speed and torque."""
 
@@ -128,7 +131,12 @@ class FullBodyEnv:
         mj, m, idx = self._mj, self.model, self.idx
         if goal_m is None:
             return stow_target_step(
-                self.arm_q_des, self.arm_qd_des, self.cfg.arm, self.dt_s, self._arm_accel
+                self.arm_q_des,
+                self.arm_qd_des,
+                self.cfg.arm,
+                self.dt_s,
+                self._arm_accel,
+                self._stow_speed_rps,
             )
         k = self._scratch
         k.qpos[:] = self.data.qpos
@@ -173,6 +181,7 @@ class FullBodyEnv:
         cmd = np.asarray(cmd, float)
         obs = self.observe()
         legs, self.gait = trot_step(obs, cmd, self.gait, self.cfg, self._stance_fn)
+        self._stowing = arm_goal_m is None
         q_des = self._arm_targets(arm_goal_m, arm_goal_vel_mps)
         # The commanded joint velocity: the targets' step over the period (the SDK's dq).
         self.arm_qd_des = (q_des - self.arm_q_des) / self.dt_s
@@ -190,6 +199,8 @@ class FullBodyEnv:
         kp, kd = self._arm_kp, self._arm_kd
         d.ctrl[idx.arm_ctrl] = self.arm_q_des + (kd * self.arm_qd_des + arm_ff) / kp
         limit = self._arm_pd_speed_rps
+        if self._stowing and self._stow_speed_rps is not None:
+            limit = self._stow_speed_rps if limit is None else min(limit, self._stow_speed_rps)
         for _ in range(self.cfg.substeps):
             if limit is not None:
                 d.ctrl[idx.arm_ctrl] = speed_limited_pd_ctrl(
