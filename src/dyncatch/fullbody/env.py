@@ -59,7 +59,6 @@ class FullBodyEnv:
         self._arm_pd_speed_rps = None if frac is None else frac * self.cfg.arm.max_joint_vel_rps
         stow = z1.stow_speed_fraction
         self._stow_speed_rps = None if stow is None else stow * self.cfg.arm.max_joint_vel_rps
-        self._stowing = True
         self.arm_driver = ArmSpeedLimiter(self.model, self.idx, self.cfg)
         """Steps the physics with the Z1's speed limit; keeps the arm's peak speed and torque."""
 
@@ -181,16 +180,15 @@ class FullBodyEnv:
         cmd = np.asarray(cmd, float)
         obs = self.observe()
         legs, self.gait = trot_step(obs, cmd, self.gait, self.cfg, self._stance_fn)
-        self._stowing = arm_goal_m is None
         q_des = self._arm_targets(arm_goal_m, arm_goal_vel_mps)
         # The commanded joint velocity: the targets' step over the period (the SDK's dq).
         self.arm_qd_des = (q_des - self.arm_q_des) / self.dt_s
         self.arm_q_des = q_des
-        self._run_pd(legs)
+        self._run_pd(legs, stowing=arm_goal_m is None)
         self.time_s += self.dt_s
         return self.observe()
 
-    def _run_pd(self, legs: JointTargets) -> None:
+    def _run_pd(self, legs: JointTargets, stowing: bool) -> None:
         m, d, idx = self.model, self.data, self.idx
         # Gravity (and Coriolis) compensation of the arm, held over the control period. The
         # arm's servos (model._add_arm) give kp (ctrl - q) - kd qd: this ctrl makes that
@@ -199,7 +197,7 @@ class FullBodyEnv:
         kp, kd = self._arm_kp, self._arm_kd
         d.ctrl[idx.arm_ctrl] = self.arm_q_des + (kd * self.arm_qd_des + arm_ff) / kp
         limit = self._arm_pd_speed_rps
-        if self._stowing and self._stow_speed_rps is not None:
+        if stowing and self._stow_speed_rps is not None:
             limit = self._stow_speed_rps if limit is None else min(limit, self._stow_speed_rps)
         for _ in range(self.cfg.substeps):
             if limit is not None:
